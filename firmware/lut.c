@@ -1,0 +1,153 @@
+#include "wdr_lut.h"
+#include "crc32.h"
+#include "wdr_err.h"
+#include <string.h>
+
+uint16_t wdr_get_u16(const uint8_t *p) { return (uint16_t)(p[0] | (p[1] << 8)); }
+
+uint32_t wdr_get_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+
+float wdr_get_f32(const uint8_t *p)
+{
+    uint32_t u = wdr_get_u32(p);
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+void wdr_put_u16(uint8_t *p, uint16_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+}
+
+void wdr_put_u32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+
+void wdr_put_f32(uint8_t *p, float v)
+{
+    uint32_t u;
+    memcpy(&u, &v, sizeof u);
+    wdr_put_u32(p, u);
+}
+
+size_t wdr_lut_size(uint32_t entry_count)
+{
+    return WDR_LUT_HEADER_SIZE + (size_t)entry_count * WDR_LUT_ENTRY_SIZE;
+}
+
+static void header_pack(const wdr_lut_header *h, uint8_t *p)
+{
+    wdr_put_u32(p + 0, h->magic);
+    wdr_put_u16(p + 4, h->version_major);
+    wdr_put_u16(p + 6, h->version_minor);
+    wdr_put_u16(p + 8, h->operator_id);
+    p[10] = h->dac_bits;
+    p[11] = h->timing;
+    wdr_put_u32(p + 12, h->entry_count);
+    wdr_put_u32(p + 16, h->tick_ps);
+    wdr_put_u32(p + 20, h->t_integration_ticks);
+    wdr_put_f32(p + 24, h->dac_lo_v);
+    wdr_put_f32(p + 28, h->dac_hi_v);
+    for (int i = 0; i < WDR_LUT_NPARAMS; i++)
+        wdr_put_f32(p + 32 + 4 * i, h->params[i]);
+    wdr_put_u32(p + 56, h->payload_crc);
+    wdr_put_u32(p + 60, h->header_crc);
+}
+
+static void header_unpack(const uint8_t *p, wdr_lut_header *h)
+{
+    h->magic = wdr_get_u32(p + 0);
+    h->version_major = wdr_get_u16(p + 4);
+    h->version_minor = wdr_get_u16(p + 6);
+    h->operator_id = wdr_get_u16(p + 8);
+    h->dac_bits = p[10];
+    h->timing = p[11];
+    h->entry_count = wdr_get_u32(p + 12);
+    h->tick_ps = wdr_get_u32(p + 16);
+    h->t_integration_ticks = wdr_get_u32(p + 20);
+    h->dac_lo_v = wdr_get_f32(p + 24);
+    h->dac_hi_v = wdr_get_f32(p + 28);
+    for (int i = 0; i < WDR_LUT_NPARAMS; i++)
+        h->params[i] = wdr_get_f32(p + 32 + 4 * i);
+    h->payload_crc = wdr_get_u32(p + 56);
+    h->header_crc = wdr_get_u32(p + 60);
+}
+
+void wdr_lut_entry(const wdr_lut_view *lut, uint32_t i, uint32_t *t_ticks, uint16_t *code)
+{
+    const uint8_t *e = lut->entries + (size_t)i * WDR_LUT_ENTRY_SIZE;
+    *t_ticks = wdr_get_u32(e);
+    *code = wdr_get_u16(e + 4);
+}
+
+void wdr_lut_encode(wdr_lut_header *h, const uint32_t *t_ticks, const uint16_t *codes, uint8_t *out)
+{
+    uint8_t *e = out + WDR_LUT_HEADER_SIZE;
+    for (uint32_t i = 0; i < h->entry_count; i++, e += WDR_LUT_ENTRY_SIZE) {
+        wdr_put_u32(e, t_ticks[i]);
+        wdr_put_u16(e + 4, codes[i]);
+        wdr_put_u16(e + 6, 0);
+    }
+    h->magic = WDR_LUT_MAGIC;
+    h->version_major = WDR_LUT_VERSION_MAJOR;
+    h->version_minor = WDR_LUT_VERSION_MINOR;
+    h->payload_crc = wdr_crc32(0, out + WDR_LUT_HEADER_SIZE, (size_t)h->entry_count * WDR_LUT_ENTRY_SIZE);
+    header_pack(h, out);
+    h->header_crc = wdr_crc32(0, out, WDR_LUT_HEADER_SIZE - 4);
+    wdr_put_u32(out + 60, h->header_crc);
+}
+
+static int header_check(const wdr_lut_header *h)
+{
+    if (h->dac_bits < 4 || h->dac_bits > 16 || h->timing > WDR_TIMING_STAMPED)
+        return WDR_E_INVAL;
+    if (h->entry_count == 0 || h->entry_count > WDR_LUT_MAX_ENTRIES || h->tick_ps == 0)
+        return WDR_E_INVAL;
+    if (h->operator_id >= WDR_OP_COUNT || !(h->dac_hi_v > h->dac_lo_v))
+        return WDR_E_INVAL;
+    return WDR_OK;
+}
+
+/* Entries must start at t=0, rise strictly in time, stay in the DAC's range and end by
+ * t_integration: the playback code relies on all of it. */
+static int entries_check(const wdr_lut_view *lut)
+{
+    uint32_t max_code = (1u << lut->h.dac_bits) - 1u, prev_t = 0;
+    for (uint32_t i = 0; i < lut->h.entry_count; i++) {
+        uint32_t t;
+        uint16_t code;
+        wdr_lut_entry(lut, i, &t, &code);
+        if (code > max_code || (i == 0 && t != 0) || (i > 0 && t <= prev_t))
+            return WDR_E_INVAL;
+        prev_t = t;
+    }
+    return prev_t < lut->h.t_integration_ticks ? WDR_OK : WDR_E_INVAL;
+}
+
+int wdr_lut_parse(const void *buf, size_t len, wdr_lut_view *out)
+{
+    const uint8_t *p = buf;
+    if (len < WDR_LUT_HEADER_SIZE)
+        return WDR_E_TRUNCATED;
+    header_unpack(p, &out->h);
+    if (out->h.magic != WDR_LUT_MAGIC || out->h.header_crc != wdr_crc32(0, p, WDR_LUT_HEADER_SIZE - 4))
+        return WDR_E_CORRUPT;
+    if (out->h.version_major != WDR_LUT_VERSION_MAJOR)
+        return WDR_E_VERSION;
+    int err = header_check(&out->h);
+    if (err)
+        return err;
+    if (len < wdr_lut_size(out->h.entry_count))
+        return WDR_E_TRUNCATED;
+    out->entries = p + WDR_LUT_HEADER_SIZE;
+    if (wdr_crc32(0, out->entries, (size_t)out->h.entry_count * WDR_LUT_ENTRY_SIZE) != out->h.payload_crc)
+        return WDR_E_CORRUPT;
+    return entries_check(out);
+}

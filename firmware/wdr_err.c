@@ -1,0 +1,26 @@
+#include "wdr_err.h"
+
+const char *wdr_strerror(int err)
+{
+    switch (err) {
+    case WDR_OK: return "ok";
+    case WDR_E_INVAL: return "invalid value";
+    case WDR_E_CORRUPT: return "corrupt (bad magic or CRC)";
+    case WDR_E_VERSION: return "unsupported format version";
+    case WDR_E_TRUNCATED: return "truncated";
+    case WDR_E_TOO_LARGE: return "too large";
+    case WDR_E_GEOMETRY: return "wrong sensor geometry";
+    case WDR_E_KIND: return "wrong table kind";
+    case WDR_E_NO_TABLE: return "no valid table";
+    case WDR_E_IO: return "I/O error";
+    case WDR_E_BUSY: return "busy";
+    case WDR_E_SEQUENCE: return "out of sequence";
+    case WDR_E_TIMEOUT: return "timed out";
+    case WDR_E_UNSUPPORTED: return "unsupported";
+    case WDR_E_NUMERIC: return "numerically unstable";
+    case WDR_E_UNREALISABLE: return "not realisable as a ramp";
+    case WDR_E_NOMEM: return "out of memory";
+    case WDR_E_POWER: return "power lost";
+    default: return "unknown error";
+    }
+}

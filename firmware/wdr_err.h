@@ -1,0 +1,29 @@
+/* One error enum for the whole project: every failure is a negative code. */
+#ifndef WDR_ERR_H
+#define WDR_ERR_H
+
+enum wdr_err {
+    WDR_OK = 0,
+    WDR_E_INVAL = -1,      /* bad argument or field value */
+    WDR_E_CORRUPT = -2,    /* CRC or magic mismatch */
+    WDR_E_VERSION = -3,    /* unsupported format version */
+    WDR_E_TRUNCATED = -4,  /* fewer bytes than the header promises */
+    WDR_E_TOO_LARGE = -5,  /* does not fit the buffer or slot */
+    WDR_E_GEOMETRY = -6,   /* sensor id, width or height mismatch */
+    WDR_E_KIND = -7,       /* wrong table kind */
+    WDR_E_NO_TABLE = -8,   /* no valid table stored */
+    WDR_E_IO = -9,         /* HAL or OS I/O failure */
+    WDR_E_BUSY = -10,      /* operation in progress */
+    WDR_E_SEQUENCE = -11,  /* packet or chunk out of order */
+    WDR_E_TIMEOUT = -12,   /* peer did not answer in time */
+    WDR_E_UNSUPPORTED = -13,
+    WDR_E_NUMERIC = -14,   /* NaN, Inf or ill-conditioned maths */
+    WDR_E_UNREALISABLE = -15, /* operator cannot be realised as a ramp */
+    WDR_E_NOMEM = -16,     /* host-side allocation failed */
+    WDR_E_POWER = -17      /* simulated power cut */
+};
+
+/* Short English name of an error code, for messages. */
+const char *wdr_strerror(int err);
+
+#endif

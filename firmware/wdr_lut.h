@@ -1,0 +1,84 @@
+/* DAC ramp lookup table (LUT) format, shared by host and firmware.
+ * The byte layout is written down in firmware/SPEC.md; all fields little-endian. */
+#ifndef WDR_LUT_H
+#define WDR_LUT_H
+#include <stddef.h>
+#include <stdint.h>
+
+#define WDR_LUT_MAGIC 0x54554c57u /* "WLUT" */
+#define WDR_LUT_VERSION_MAJOR 1
+#define WDR_LUT_VERSION_MINOR 0
+#define WDR_LUT_HEADER_SIZE 64u
+#define WDR_LUT_ENTRY_SIZE 8u
+#define WDR_LUT_MAX_ENTRIES 65536u
+#define WDR_LUT_NPARAMS 6
+
+enum wdr_lut_timing {
+    WDR_TIMING_UNIFORM = 0, /* one entry per tick of a fixed DAC clock */
+    WDR_TIMING_STAMPED = 1  /* one entry per DAC code, each with its own time stamp */
+};
+
+/* Operator ids stored in the LUT header. Never renumber: tables in flash use them. */
+enum wdr_operator_id {
+    WDR_OP_LINEAR = 0,
+    WDR_OP_REINHARD = 1,
+    WDR_OP_REINHARD_WHITE = 2,
+    WDR_OP_SCHLICK = 3,
+    WDR_OP_TUMBLIN_RUSHMEIER = 4,
+    WDR_OP_DRAGO = 5,
+    WDR_OP_EXPONENTIAL = 6,
+    WDR_OP_LOGARITHMIC = 7,
+    WDR_OP_USER_CURVE = 8,
+    WDR_OP_COUNT
+};
+
+typedef struct wdr_lut_header {
+    uint32_t magic;
+    uint16_t version_major;
+    uint16_t version_minor;
+    uint16_t operator_id;
+    uint8_t dac_bits;
+    uint8_t timing;               /* enum wdr_lut_timing */
+    uint32_t entry_count;
+    uint32_t tick_ps;             /* one time tick, in picoseconds */
+    uint32_t t_integration_ticks; /* end of integration: the ramp holds its last code until then */
+    float dac_lo_v;               /* voltage of code 0 */
+    float dac_hi_v;               /* voltage of code 2^bits - 1 */
+    float params[WDR_LUT_NPARAMS];/* operator parameters, meaning per operator (SPEC.md) */
+    uint32_t payload_crc;         /* CRC-32 of the entries */
+    uint32_t header_crc;          /* CRC-32 of header bytes 0..59 */
+} wdr_lut_header;
+
+/* A parsed LUT that points into the caller's buffer (no copy). */
+typedef struct wdr_lut_view {
+    wdr_lut_header h;
+    const uint8_t *entries;
+} wdr_lut_view;
+
+/* Bytes taken by a LUT with n entries. */
+size_t wdr_lut_size(uint32_t entry_count);
+
+/* Check and parse a LUT held in buf.
+ * @retval WDR_OK
+ * @retval WDR_E_TRUNCATED  len shorter than the header or than the entries it promises
+ * @retval WDR_E_CORRUPT    bad magic, header CRC or payload CRC
+ * @retval WDR_E_VERSION    major version not 1
+ * @retval WDR_E_INVAL      a field out of range (bits, count, timing, times not rising) */
+int wdr_lut_parse(const void *buf, size_t len, wdr_lut_view *out);
+
+/* Entry i of a parsed LUT: its start time in ticks and its DAC code. */
+void wdr_lut_entry(const wdr_lut_view *lut, uint32_t i, uint32_t *t_ticks, uint16_t *code);
+
+/* Serialise header h (CRC fields are computed here) followed by entries into out,
+ * which must hold wdr_lut_size(h->entry_count) bytes. t_ticks and codes have entry_count items. */
+void wdr_lut_encode(wdr_lut_header *h, const uint32_t *t_ticks, const uint16_t *codes, uint8_t *out);
+
+/* Little-endian helpers shared by the table and protocol codecs. */
+uint16_t wdr_get_u16(const uint8_t *p);
+uint32_t wdr_get_u32(const uint8_t *p);
+float wdr_get_f32(const uint8_t *p);
+void wdr_put_u16(uint8_t *p, uint16_t v);
+void wdr_put_u32(uint8_t *p, uint32_t v);
+void wdr_put_f32(uint8_t *p, float v);
+
+#endif

@@ -1,0 +1,57 @@
+/* wdrctl: the host tool. One dispatch table; each command group lives in its own file. */
+#include "wdrctl.h"
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static const wdrctl_command commands[] = {
+    {NULL, "operators", cmd_operators, "list tone-mapping operators, parameters and defaults"},
+    {"lut", "build", cmd_lut_build,
+     "--operator NAME [--param key=value]... [--board FILE] -o LUT.bin [--csv FILE] [--plot FILE.png] [--json]"},
+};
+#define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
+
+int wdrctl_fail(int code, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fputs("wdrctl: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    va_end(ap);
+    return code;
+}
+
+int wdrctl_show_progress(void)
+{
+    const char *ci = getenv("CI");
+    return isatty(2) && !(ci && *ci && strcmp(ci, "false"));
+}
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: wdrctl COMMAND [options]\n\ncommands:\n");
+    for (int i = 0; i < N_COMMANDS; i++)
+        fprintf(f, "  %s%s%s %s\n", commands[i].group ? commands[i].group : "", commands[i].group ? " " : "",
+                commands[i].name, commands[i].usage);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+        usage(argc < 2 ? stderr : stdout);
+        return argc < 2 ? EX_USAGE : EX_OK;
+    }
+    for (int i = 0; i < N_COMMANDS; i++) {
+        const wdrctl_command *c = &commands[i];
+        if (!c->group && !strcmp(argv[1], c->name))
+            return c->run(argc - 1, argv + 1);
+        if (c->group && !strcmp(argv[1], c->group) && argc > 2 && !strcmp(argv[2], c->name))
+            return c->run(argc - 2, argv + 2);
+    }
+    fprintf(stderr, "wdrctl: unknown command '%s%s%s'\n", argv[1], argc > 2 ? " " : "", argc > 2 ? argv[2] : "");
+    usage(stderr);
+    return EX_USAGE;
+}

@@ -1,0 +1,71 @@
+/* The simulated sensor: a physical pixel array (paper Fig. 1) behind the simulated HAL and
+ * the wdrsim front end. A "chip" draws its fixed-pattern parameters once from a seed; temporal
+ * noise is drawn per frame from the frame seed. Same seeds, same bits.
+ * This is the contract between sim/ and hal/sim; sim/ may add functions, never change these. */
+#ifndef WDR_SIM_H
+#define WDR_SIM_H
+#include "board.h"
+#include "wdr_lut.h"
+#include <stdint.h>
+
+typedef struct wdr_sim wdr_sim;
+
+enum wdr_effect {
+    WDR_FX_MISMATCH,   /* per-pixel V_T (M1..M3), beta, C_PD and dark-current spread */
+    WDR_FX_DARK,       /* dark current */
+    WDR_FX_SHOT,       /* photon shot noise */
+    WDR_FX_KTC,        /* reset noise on C_PD */
+    WDR_FX_READ,       /* read noise of the column chain */
+    WDR_FX_DAC_QUANT,  /* stepped ramp: DAC codes and step times (off: ideal continuous ramp) */
+    WDR_FX_ADC_QUANT,  /* column ADC quantisation (off: continuous output code) */
+    WDR_FX_LEAKAGE,    /* hold-node droop until the row is read */
+    WDR_FX_CLIPPING,   /* DAC and ADC rails */
+    WDR_FX_COUNT
+};
+
+typedef enum wdr_fx_mode { WDR_FX_OFF = 0, WDR_FX_ON = 1, WDR_FX_AUTO = 2 } wdr_fx_mode;
+
+/* What one run did with each effect, and why. */
+typedef struct wdr_fx_report {
+    wdr_fx_mode requested;
+    int ran;                 /* 1 if the effect was simulated */
+    double estimate_lsb;     /* estimated worst-case size for this scene, in ADC LSB */
+    char why[160];
+} wdr_fx_report;
+
+const char *wdr_effect_name(int fx);          /* "mismatch", "dark", ... as in scene files */
+int wdr_effect_from_name(const char *name);   /* -1 if unknown */
+
+/* Create a chip for board b; fixed-pattern parameters come from chip_seed. NULL on no memory. */
+wdr_sim *wdr_sim_create(const wdr_board *b, uint64_t chip_seed);
+void wdr_sim_destroy(wdr_sim *s);
+
+void wdr_sim_set_effect(wdr_sim *s, int fx, wdr_fx_mode mode);
+void wdr_sim_set_auto_tolerance(wdr_sim *s, double lsb); /* default 0.25 ADC LSB */
+void wdr_sim_set_threads(wdr_sim *s, int n);              /* 0: all cores */
+
+/* The ramp the DAC plays next (copied). @retval WDR_OK, WDR_E_INVAL */
+int wdr_sim_set_lut(wdr_sim *s, const wdr_lut_view *lut);
+
+/* Illumination as photocurrent in amperes: one value for all pixels, or a width*height map. */
+int wdr_sim_set_uniform(wdr_sim *s, double amps);
+int wdr_sim_set_photocurrent(wdr_sim *s, const float *amps);
+
+/* Global reset, integration and compare for every pixel; afterwards each hold node holds its
+ * value. @retval WDR_OK, WDR_E_NO_TABLE (no LUT set) */
+int wdr_sim_expose(wdr_sim *s, uint64_t frame_seed);
+
+/* Read one row t_after_s seconds after integration ended: leakage, source follower, read noise,
+ * ADC. codes gets width values. @retval WDR_OK, WDR_E_INVAL (row out of range or not exposed) */
+int wdr_sim_read_row(wdr_sim *s, int row, double t_after_s, uint16_t *codes);
+
+/* Expose and read every row at the board's row time: a whole raw frame (width*height codes). */
+int wdr_sim_render(wdr_sim *s, uint64_t frame_seed, uint16_t *frame);
+
+/* Same, but with unquantised ADC output in codes (for studies and calibration truth). */
+int wdr_sim_render_float(wdr_sim *s, uint64_t frame_seed, float *frame);
+
+/* Report of the last expose/render, indexed by enum wdr_effect. */
+const wdr_fx_report *wdr_sim_report(const wdr_sim *s);
+
+#endif
