@@ -1,0 +1,206 @@
+/* The per-pixel correction kernel. Each form has its own branch-free loop over the row so the
+ * compiler can vectorise it; flagged pixels are patched afterwards, in a separate pass, because
+ * they are rare and a per-pixel test would slow every good pixel down. float32 only. */
+#include "correct.h"
+#include "wdr_err.h"
+#include <string.h>
+
+/* Scale to output codes and clamp: the comparisons also map NaN to 0, so nothing non-finite
+ * leaves the kernel whatever the input. */
+static inline float to_output(float v, float out_scale, float out_max)
+{
+    v *= out_scale;
+    v = v > 0.0f ? v : 0.0f;
+    return v < out_max ? v : out_max;
+}
+
+static inline float moebius(float y, float p, float q, float r) { return (p * y + q) / (r * y + 1.0f); }
+
+/* Horner over n coefficients; n is a literal at every call so the loop unrolls. */
+static inline float poly(const float *const *c, int i, float u, const int n)
+{
+    float v = c[n - 1][i];
+    for (int k = n - 2; k >= 0; k--)
+        v = v * u + c[k][i];
+    return v;
+}
+
+/* ---- one loop per form and input type ---- */
+
+static void identity_u16(const wdr_cal_view *cal, const uint16_t *raw, uint16_t *out)
+{
+    const float s = cal->h.out_scale, m = (float)cal->h.out_max;
+    for (int i = 0; i < cal->h.width; i++)
+        out[i] = (uint16_t)(to_output((float)raw[i], s, m) + 0.5f);
+}
+
+static void moebius_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
+{
+    const float *p = wdr_cal_row_coeffs(cal, row, 0), *q = wdr_cal_row_coeffs(cal, row, 1),
+                *r = wdr_cal_row_coeffs(cal, row, 2);
+    const float s = cal->h.out_scale, m = (float)cal->h.out_max;
+    for (int i = 0; i < cal->h.width; i++)
+        out[i] = (uint16_t)(to_output(moebius((float)raw[i], p[i], q[i], r[i]), s, m) + 0.5f);
+}
+
+static inline void poly_u16_n(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out, const int n)
+{
+    const float *c[WDR_CAL_MAX_COEFFS];
+    for (int k = 0; k < n; k++)
+        c[k] = wdr_cal_row_coeffs(cal, row, k);
+    const float s = cal->h.out_scale, m = (float)cal->h.out_max, a = cal->h.in_scale, b = cal->h.in_offset;
+    for (int i = 0; i < cal->h.width; i++)
+        out[i] = (uint16_t)(to_output(poly(c, i, (float)raw[i] * a + b, n), s, m) + 0.5f);
+}
+
+static void poly_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
+{
+    switch (cal->h.n_coeffs) {
+    case 2: poly_u16_n(cal, row, raw, out, 2); break;
+    case 3: poly_u16_n(cal, row, raw, out, 3); break;
+    case 4: poly_u16_n(cal, row, raw, out, 4); break;
+    case 5: poly_u16_n(cal, row, raw, out, 5); break;
+    case 6: poly_u16_n(cal, row, raw, out, 6); break;
+    case 7: poly_u16_n(cal, row, raw, out, 7); break;
+    default: poly_u16_n(cal, row, raw, out, 8); break;
+    }
+}
+
+static void identity_f32(const wdr_cal_view *cal, const float *raw, float *out)
+{
+    const float s = cal->h.out_scale, m = (float)cal->h.out_max;
+    for (int i = 0; i < cal->h.width; i++)
+        out[i] = to_output(raw[i], s, m);
+}
+
+static void moebius_f32(const wdr_cal_view *cal, int row, const float *raw, float *out)
+{
+    const float *p = wdr_cal_row_coeffs(cal, row, 0), *q = wdr_cal_row_coeffs(cal, row, 1),
+                *r = wdr_cal_row_coeffs(cal, row, 2);
+    const float s = cal->h.out_scale, m = (float)cal->h.out_max;
+    for (int i = 0; i < cal->h.width; i++)
+        out[i] = to_output(moebius(raw[i], p[i], q[i], r[i]), s, m);
+}
+
+static void poly_f32(const wdr_cal_view *cal, int row, const float *raw, float *out)
+{
+    const int n = cal->h.n_coeffs;
+    const float *c[WDR_CAL_MAX_COEFFS];
+    for (int k = 0; k < n; k++)
+        c[k] = wdr_cal_row_coeffs(cal, row, k);
+    const float s = cal->h.out_scale, m = (float)cal->h.out_max, a = cal->h.in_scale, b = cal->h.in_offset;
+    for (int i = 0; i < cal->h.width; i++) {
+        float u = raw[i] * a + b, v = c[n - 1][i];
+        for (int k = n - 2; k >= 0; k--)
+            v = v * u + c[k][i];
+        out[i] = to_output(v, s, m);
+    }
+}
+
+/* ---- bad pixels: each run of flagged pixels takes the mean of the good pixels around it ---- */
+
+static int next_flagged(const uint8_t *f, int i, int w)
+{
+    while (i + 4 <= w) { /* most rows have no flags: skip four at a time */
+        uint32_t word;
+        memcpy(&word, f + i, 4);
+        if (word)
+            break;
+        i += 4;
+    }
+    while (i < w && !f[i])
+        i++;
+    return i;
+}
+
+static void patch_u16(const uint8_t *f, int w, uint16_t *out)
+{
+    for (int s = next_flagged(f, 0, w); s < w; s = next_flagged(f, s, w)) {
+        int e = s;
+        while (e < w && f[e])
+            e++;
+        uint32_t fill;
+        if (s > 0 && e < w)
+            fill = ((uint32_t)out[s - 1] + out[e] + 1u) / 2u;
+        else if (s > 0)
+            fill = out[s - 1];
+        else if (e < w)
+            fill = out[e];
+        else
+            return; /* no good pixel in the row: leave the clamped values */
+        for (int i = s; i < e; i++)
+            out[i] = (uint16_t)fill;
+        s = e;
+    }
+}
+
+static void patch_f32(const uint8_t *f, int w, float *out)
+{
+    for (int s = next_flagged(f, 0, w); s < w; s = next_flagged(f, s, w)) {
+        int e = s;
+        while (e < w && f[e])
+            e++;
+        float fill;
+        if (s > 0 && e < w)
+            fill = 0.5f * (out[s - 1] + out[e]);
+        else if (s > 0)
+            fill = out[s - 1];
+        else if (e < w)
+            fill = out[e];
+        else
+            return;
+        for (int i = s; i < e; i++)
+            out[i] = fill;
+        s = e;
+    }
+}
+
+static int row_ok(const wdr_cal_view *cal, int row, const void *raw, const void *out)
+{
+    return cal && raw && out && row >= 0 && row < cal->h.height &&
+           (cal->h.form == WDR_FORM_IDENTITY || cal->payload);
+}
+
+int wdr_correct_row(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
+{
+    if (!row_ok(cal, row, raw, out))
+        return WDR_E_INVAL;
+    switch (cal->h.form) {
+    case WDR_FORM_IDENTITY:
+        identity_u16(cal, raw, out);
+        return WDR_OK;
+    case WDR_FORM_MOEBIUS:
+        moebius_u16(cal, row, raw, out);
+        break;
+    case WDR_FORM_POLY:
+        poly_u16(cal, row, raw, out);
+        break;
+    default:
+        return WDR_E_INVAL;
+    }
+    if (cal->h.bad_pixels)
+        patch_u16(wdr_cal_row_flags(cal, row), cal->h.width, out);
+    return WDR_OK;
+}
+
+int wdr_correct_row_f32(const wdr_cal_view *cal, int row, const float *raw, float *out)
+{
+    if (!row_ok(cal, row, raw, out))
+        return WDR_E_INVAL;
+    switch (cal->h.form) {
+    case WDR_FORM_IDENTITY:
+        identity_f32(cal, raw, out);
+        return WDR_OK;
+    case WDR_FORM_MOEBIUS:
+        moebius_f32(cal, row, raw, out);
+        break;
+    case WDR_FORM_POLY:
+        poly_f32(cal, row, raw, out);
+        break;
+    default:
+        return WDR_E_INVAL;
+    }
+    if (cal->h.bad_pixels)
+        patch_f32(wdr_cal_row_flags(cal, row), cal->h.width, out);
+    return WDR_OK;
+}

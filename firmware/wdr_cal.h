@@ -1,0 +1,115 @@
+/* Calibration (fixed-pattern-noise correction) table, shared by host and firmware.
+ * The byte layout is written down in firmware/SPEC.md, section "Calibration table format";
+ * all fields little-endian, coefficients IEEE-754 float32.
+ *
+ * A table maps each pixel's raw ADC code y to a corrected value: the nominal pixel's response
+ * to the photocurrent that this pixel's calibration model recovers from y. The firmware
+ * evaluates it on the fly (firmware/correct.h) with one small per-pixel formula. */
+#ifndef WDR_CAL_H
+#define WDR_CAL_H
+#include <stddef.h>
+#include <stdint.h>
+
+#define WDR_CAL_MAGIC 0x4c414357u /* "WCAL" */
+#define WDR_CAL_VERSION_MAJOR 1
+#define WDR_CAL_VERSION_MINOR 0
+#define WDR_CAL_HEADER_SIZE 64u
+#define WDR_CAL_MAX_COEFFS 8u
+#define WDR_CAL_MAX_WIDTH 4096u
+
+/* Per-pixel formula. Never renumber: tables in flash use these ids. */
+enum wdr_cal_form {
+    WDR_FORM_IDENTITY = 0, /* no coefficients: v = y */
+    WDR_FORM_MOEBIUS = 1,  /* 3 coefficients p, q, r: v = (p y + q) / (r y + 1) */
+    WDR_FORM_POLY = 2,     /* n coefficients c0..c(n-1), u = y * in_scale + in_offset:
+                              v = c0 + c1 u + ... + c(n-1) u^(n-1)  (Horner, no divide) */
+    WDR_FORM_COUNT
+};
+
+/* Which calibration model produced a table: informational, for reports. */
+enum wdr_cal_model_id {
+    WDR_MODEL_NONE = 0,
+    WDR_MODEL_SIMPLE3 = 1,  /* paper eq. 16-20: y = a - b(x+d)/(1+c(x+d)) */
+    WDR_MODEL_COMPLEX4 = 2, /* paper eq. 21-26: y = a - b x(1+e x)/(1+c x) */
+    WDR_MODEL_LSQ = 3,      /* least squares over N currents (any operator) */
+    WDR_MODEL_COUNT
+};
+
+/* Per-pixel flag bits: any set bit makes the kernel replace the pixel from its row neighbours. */
+enum wdr_cal_pixel_flag {
+    WDR_PIX_DEAD = 1u << 0,      /* responds far less than the array to light */
+    WDR_PIX_STUCK = 1u << 1,     /* same output at every level */
+    WDR_PIX_HOT = 1u << 2,       /* dark output far towards bright: large dark current */
+    WDR_PIX_SATURATED = 1u << 3, /* at an ADC rail inside the calibrated range */
+    WDR_PIX_UNFIT = 1u << 4      /* the model could not be fitted or inverted (reason in the host report) */
+};
+
+typedef struct wdr_cal_header {
+    uint32_t magic;
+    uint16_t version_major;
+    uint16_t version_minor;
+    uint32_t sensor_id;
+    uint16_t width, height;
+    uint16_t form;         /* enum wdr_cal_form */
+    uint16_t n_coeffs;     /* per pixel: 0 (IDENTITY), 3 (MOEBIUS), 2..8 (POLY) */
+    uint16_t model;        /* enum wdr_cal_model_id */
+    uint16_t operator_id;  /* enum wdr_operator_id of the ramp it was calibrated with */
+    float in_scale;        /* POLY: u = y * in_scale + in_offset keeps u in about [-1, 1] */
+    float in_offset;
+    float out_scale;       /* output code = round(v * out_scale), clamped to [0, out_max] */
+    uint16_t out_max;      /* largest output code */
+    uint16_t raw_max;      /* largest raw ADC code (2^bits - 1) */
+    uint32_t bad_pixels;   /* number of pixels with a flag set */
+    uint32_t reserved[2];  /* zero */
+    uint32_t payload_len;  /* bytes after the header: height * row_stride */
+    uint32_t payload_crc;  /* CRC-32 of the payload */
+    uint32_t header_crc;   /* CRC-32 of header bytes 0..59 */
+} wdr_cal_header;
+
+/* A parsed table pointing into the caller's buffer (no copy), or the identity (no buffer).
+ * Row r occupies row_stride bytes at payload + r * row_stride: n_coeffs planes of width float32
+ * (plane k holds coefficient k of every pixel of the row), then width flag bytes, padded to 4. */
+typedef struct wdr_cal_view {
+    wdr_cal_header h;
+    const uint8_t *payload; /* NULL for the identity */
+    uint32_t row_stride;
+} wdr_cal_view;
+
+/* Bytes of one row block and of a whole table (header included). */
+uint32_t wdr_cal_row_stride(uint16_t width, uint16_t n_coeffs);
+size_t wdr_cal_size(uint16_t width, uint16_t height, uint16_t n_coeffs);
+
+/* Coefficients needed by a form (n for POLY is the caller's choice, 2..8). */
+int wdr_cal_form_coeffs_ok(uint16_t form, uint16_t n_coeffs);
+
+/* The identity correction for a sensor without a table: output = raw * out_scale.
+ * @retval WDR_OK
+ * @retval WDR_E_INVAL  zero size, width above WDR_CAL_MAX_WIDTH, out_scale not finite and > 0 */
+int wdr_cal_identity(wdr_cal_view *v, uint32_t sensor_id, uint16_t width, uint16_t height, float out_scale,
+                     uint16_t raw_max, uint16_t out_max);
+
+/* Check and parse a table held in buf; buf must be 4-byte aligned (float loads on Cortex-M7).
+ * Every coefficient is checked to be finite and every MOEBIUS denominator positive over
+ * [0, raw_max], so the kernel can trust the table.
+ * @retval WDR_OK
+ * @retval WDR_E_TRUNCATED  len shorter than the header or than the payload it promises
+ * @retval WDR_E_CORRUPT    bad magic, header CRC or payload CRC
+ * @retval WDR_E_VERSION    major version not 1
+ * @retval WDR_E_INVAL      a field out of range, misaligned buffer, reserved field not zero
+ * @retval WDR_E_NUMERIC    a coefficient is NaN/Inf or a denominator can reach zero */
+int wdr_cal_parse(const void *buf, size_t len, wdr_cal_view *out);
+
+/* Check that a parsed table belongs to this sensor.
+ * @retval WDR_OK, WDR_E_GEOMETRY */
+int wdr_cal_check_geometry(const wdr_cal_view *v, uint32_t sensor_id, uint16_t width, uint16_t height);
+
+/* Row accessors into a parsed table (not for the identity). */
+const float *wdr_cal_row_coeffs(const wdr_cal_view *v, int row, int k);
+const uint8_t *wdr_cal_row_flags(const wdr_cal_view *v, int row);
+
+/* Serialise: header h (magic, version, payload_len and CRCs are filled here) and, for each row,
+ * coefficients coeffs[(k * height + row) * width + col] and flags[row * width + col], into out,
+ * which must hold wdr_cal_size(...) bytes. Host side; the firmware only parses. */
+void wdr_cal_encode(wdr_cal_header *h, const float *coeffs, const uint8_t *flags, uint8_t *out);
+
+#endif
