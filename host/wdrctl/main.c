@@ -9,7 +9,10 @@
 static const wdrctl_command commands[] = {
     {NULL, "operators", cmd_operators, "list tone-mapping operators, parameters and defaults"},
     {"lut", "build", cmd_lut_build,
-     "--operator NAME [--param key=value]... [--board FILE] -o LUT.bin [--csv FILE] [--plot FILE.png] [--json]"},
+     "--operator NAME [--param key=value]... [--board FILE] -o LUT.bin [--csv FILE] [--plot FILE.png] [--json]\n"
+     "            [--repair] [--timing uniform|stamped] [--entries N] [--dac-bits N] [--curve FILE.csv]\n"
+     "            [--l-avg X] [--l-max X] [--l-min X]"},
+    {"lut", "plots", cmd_lut_plots, "[--board FILE] [--outdir DIR]  V_ref(t) and response of every operator"},
 };
 #define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
 

@@ -13,6 +13,7 @@ typedef struct wdrctl_command {
 /* Commands, one per file group (cmd_*.c). */
 int cmd_operators(int argc, char **argv);
 int cmd_lut_build(int argc, char **argv);
+int cmd_lut_plots(int argc, char **argv);
 
 /* Print "wdrctl: " and a formatted message to stderr; returns code. */
 int wdrctl_fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
