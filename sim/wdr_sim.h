@@ -68,4 +68,38 @@ int wdr_sim_render_float(wdr_sim *s, uint64_t frame_seed, float *frame);
 /* Report of the last expose/render, indexed by enum wdr_effect. */
 const wdr_fx_report *wdr_sim_report(const wdr_sim *s);
 
+/* ---- Additions (sim/SPEC.md) ---------------------------------------------------------- */
+
+/* Mode of one effect (WDR_FX_OFF for an unknown effect). New chips have every effect ON. */
+wdr_fx_mode wdr_sim_get_effect(const wdr_sim *s, int fx);
+
+/* The continuous V_ref(t) used when DAC quantisation is off: n points, t rising from >= 0 (s),
+ * v non-decreasing (V); copied, held flat after the last point until the LUT's integration end.
+ * n = 0 goes back to the default: a line through the mid-points of the LUT's steps.
+ * @retval WDR_OK, WDR_E_INVAL (non-finite, not rising), WDR_E_NOMEM */
+int wdr_sim_set_ramp(wdr_sim *s, const double *t_s, const double *v, int n);
+
+/* Mark the next frames as a noiseless reference: `auto` then skips shot, kTC and read noise. */
+void wdr_sim_set_reference(wdr_sim *s, int reference);
+
+/* Called from render threads as rows finish (rows_done rises; calls may come from any thread). */
+void wdr_sim_set_progress(wdr_sim *s, void (*fn)(void *ctx, int rows_done, int rows_total), void *ctx);
+
+const wdr_board *wdr_sim_board(const wdr_sim *s);
+
+/* End of integration of the LUT set (s), 0 before any LUT: rows are read after it. */
+double wdr_sim_integration_time(const wdr_sim *s);
+
+/* Fixed-pattern devices of one pixel as this chip drew them: calibration's ground truth. */
+typedef struct wdr_sim_pixel_truth {
+    double dq0_c;      /* reset charge minus the nominal pixel's (M1 threshold and C_PD), C */
+    double dvt2_v;     /* M2 threshold offset, V */
+    double c_pd_scale; /* C_PD relative to nominal */
+    double dark_a;     /* dark current, A */
+    double sf_k_v;     /* source-follower constant phi + gamma sqrt(phi) - V_T0,3 - sqrt(2 I_b / beta3) */
+} wdr_sim_pixel_truth;
+
+/* @retval WDR_OK, WDR_E_INVAL (outside the array) */
+int wdr_sim_pixel_devices(const wdr_sim *s, int x, int y, wdr_sim_pixel_truth *out);
+
 #endif

@@ -1,0 +1,120 @@
+/* Inside the simulator: the chip's fixed pattern, the ramp tables the crossing search walks,
+ * and the per-pixel physics shared by expose, read_row and render. Not for other folders. */
+#ifndef WDR_SIM_INTERNAL_H
+#define WDR_SIM_INTERNAL_H
+#include "pixel.h"
+#include "wdr_sim.h"
+#include <stdint.h>
+
+#define SIM_Q_E 1.602176634e-19  /* electron charge, C */
+#define SIM_K_B 1.380649e-23     /* Boltzmann constant, J/K */
+
+/* One node of a ramp table: a DAC step (held value v, ends at t) or, for the continuous ramp,
+ * one sample of V_ref(t). a, ch, ch2 are the nominal device's charge terms at the M2 turn-off
+ * node h(v): a = Q(V_N0) - Q(h), ch = C(h), ch2 = C'(h)/2, so a pixel whose M2 threshold is
+ * off by d has Q(V_N0) - Q(h + d) = a - d (ch + d ch2) to third order in d (d ~ 10 mV). */
+typedef struct sim_node {
+    double t, a, ch, ch2;
+    double v;
+} sim_node;
+
+/* The ramp as the crossing search sees it, plus a guess table indexed by the float bits of the
+ * photocurrent (a cheap piecewise-linear log2) holding the nominal crossing node. */
+typedef struct sim_ramp_table {
+    int n;
+    sim_node *node;
+    double t_int;          /* end of integration */
+    int continuous;        /* nodes are samples of a continuous ramp: interpolate the crossing */
+    uint32_t guess_base;   /* float bits >> SIM_GUESS_SHIFT of the lowest bucket */
+    int n_guess;
+    int32_t *guess;        /* first node crossed by a nominal pixel at the bucket's lower edge */
+} sim_ramp_table;
+
+#define SIM_GUESS_SHIFT 13 /* 1024 buckets per octave of current */
+
+/* Per-pixel fixed pattern, float arrays of width*height. Charges are in the nominal
+ * device's units (true charge / C_PD scale), so the search compares like with like. */
+typedef struct sim_fixed {
+    float *dq0;      /* Q_nom(V_N0 of this pixel) - Q_nom(V_N0 nominal): M1 threshold */
+    float *dvt2;     /* M2 threshold offset, V */
+    float *cscale;   /* C_PD / nominal */
+    float *idark;    /* dark current, A (lognormal spread) */
+    float *sf_k;     /* source-follower constant: phi + gamma sqrt(phi) - vt0_3 - sqrt(2 I_b / beta3) */
+    float *ktc_q;    /* reset-noise charge sigma sqrt(kT C(V_N0)), in nominal units */
+} sim_fixed;
+
+/* Device values of one pixel for one frame, as the crossing search wants them. */
+typedef struct sim_px {
+    double e0;       /* charge offset: dq0 + reset noise - shot noise, nominal units */
+    double d;        /* M2 threshold offset */
+    double ie;       /* (photo + dark current) / C_PD scale */
+} sim_px;
+
+/* The fixed pattern one render uses: the chip's arrays (stride 1) or, with mismatch off, the
+ * nominal values (stride 0). */
+typedef struct sim_fixed_view {
+    const float *dq0, *dvt2, *cscale, *idark, *sf_k, *ktc_q;
+    long stride;
+} sim_fixed_view;
+
+/* Effects as they apply to one render (after auto has decided). */
+typedef struct sim_plan {
+    sim_fixed_view fixed;
+    int on[WDR_FX_COUNT];
+    double leak_v_per_s; /* hold droop rate, V/s (0 if leakage is off) */
+} sim_plan;
+
+typedef void (*wdr_sim_progress_fn)(void *ctx, int rows_done, int rows_total);
+
+struct wdr_sim {
+    wdr_board board;
+    uint64_t chip_seed;
+    int width, height, threads;
+    wdr_pixel_dev nom;
+    double v_n0_nom, q0_nom, sf_k_nom, ktc_q_nom, sqrt_phi;
+    sim_fixed fx;
+    float nominal_fx[6];   /* dq0, dvt2, cscale, idark, sf_k, ktc_q of the nominal pixel */
+    wdr_fx_mode mode[WDR_FX_COUNT];
+    double tolerance_lsb;
+    int reference;
+    /* ramp: the stepped LUT and the continuous ramp (from the caller or the LUT mid-points) */
+    int have_lut;
+    uint8_t *lut_bytes;
+    sim_ramp_table stepped, continuous;
+    int caller_ramp;
+    /* illumination */
+    float *amps;           /* NULL: uniform */
+    double uniform_amps;
+    double scene_i_min, scene_i_max;
+    /* last exposure */
+    int exposed;
+    uint64_t frame_seed;
+    sim_plan plan;
+    float *hold_v, *hold_t;
+    wdr_fx_report report[WDR_FX_COUNT];
+    wdr_sim_progress_fn progress;
+    void *progress_ctx;
+};
+
+/* sim_ramp.c */
+int sim_table_from_lut(const wdr_sim *s, const wdr_lut_view *lut, sim_ramp_table *out);
+int sim_table_from_ramp(const wdr_sim *s, const double *t, const double *v, int n, double t_int,
+                        sim_ramp_table *out);
+void sim_table_free(sim_ramp_table *t);
+
+/* sim_pixel.c */
+void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, double *v_hold, double *t_cross);
+double sim_sf_out(const wdr_sim *s, double sf_k, double v_g);
+double sim_adc(const wdr_board *b, double v, int quantise, int clip);
+void sim_expose_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, int row, float *v_hold,
+                    float *t_cross);
+void sim_read_row_codes(const wdr_sim *s, const sim_plan *plan, double t_int, int row, const float *v_hold,
+                        const float *t_cross, double t_after, int quantise, float *codes);
+
+/* sim_auto.c */
+void sim_plan_effects(wdr_sim *s, sim_plan *plan);
+
+/* sim_chip.c: reset charge change (nominal units) for an M1 threshold offset */
+double sim_reset_dq0(const wdr_sim *s, double dvt1);
+
+#endif
