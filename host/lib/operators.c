@@ -173,6 +173,8 @@ static double eval_drago(const wdr_operator *op, double lw)
 {
     double b = op->p[0], l_dmax = op->p[1];
     double l = lw / op->stats.l_avg, lmax = op->stats.l_max / op->stats.l_avg;
+    if (l >= lmax)
+        return l_dmax * 0.01; /* the scene has nothing brighter: saturate */
     double denom = log(2.0 + 8.0 * pow(l / lmax, log(b) / log(0.5)));
     /* Not clamped: past L_max/L_avg ~ 2e5 the curve overshoots 1 and turns down before L_max,
      * and the ramp builder must see that to refuse or repair it. */

@@ -1,0 +1,41 @@
+/* Shared set-up for the operator tests: boards by name and operators with defaults. */
+#ifndef TEST_SUPPORT_H
+#define TEST_SUPPORT_H
+#include "board.h"
+#include "operators.h"
+#include "ramp.h"
+#include "wdr_err.h"
+#include <stdio.h>
+#include <stdlib.h>
+#include <math.h>
+
+/* cmocka 1.1.5 (Debian 12) has no assert_double_equal; this one also names both values. */
+#ifndef assert_double_equal
+#define assert_double_equal(a, b, eps)                                                                     \
+    do {                                                                                                   \
+        double a_ = (a), b_ = (b);                                                                         \
+        if (!(fabs(a_ - b_) <= (eps)))                                                                     \
+            fail_msg("%s = %.12g, expected %s = %.12g within %g", #a, a_, #b, b_, (double)(eps));          \
+    } while (0)
+#endif
+
+static inline void load_test_board(const char *name, wdr_board *b)
+{
+    char path[1024], err[512];
+    wdr_board_path(name, path, sizeof path);
+    wdr_board_defaults(b);
+    if (wdr_board_load(path, b, err, sizeof err)) {
+        fprintf(stderr, "cannot load board %s: %s\n", name, err);
+        exit(1);
+    }
+}
+
+static inline int init_default_op(wdr_operator *op, const wdr_board *b, const char *name)
+{
+    char err[512];
+    wdr_scene_stats st;
+    wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    return wdr_operator_init(op, name, &st, err, sizeof err);
+}
+
+#endif
