@@ -25,6 +25,8 @@ typedef struct sim_ramp_table {
     sim_node *node;
     double t_int;          /* end of integration */
     int continuous;        /* nodes are samples of a continuous ramp: interpolate the crossing */
+    const wdr_pixel_dev *dev; /* nominal devices, and their reset charge, for coarse DAC jumps */
+    double q0_nom;
     uint32_t guess_base;   /* float bits >> SIM_GUESS_SHIFT of the lowest bucket */
     int n_guess;
     int32_t *guess;        /* first node crossed by a nominal pixel at the bucket's lower edge */

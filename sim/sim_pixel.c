@@ -71,6 +71,22 @@ static int search_first(const sim_ramp_table *tab, const sim_px *p)
 
 static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
 
+/* G level reached when V_ref jumps from pv->v to v_next with the node between the two steps'
+ * turn-off levels. The crossing condition is linear in the charge terms between the nodes; for
+ * a DAC step it is linear in v to far below a microvolt, for a coarse step solve it exactly. */
+static double jump_level(const sim_ramp_table *tab, const sim_px *p, const sim_node *pv, double g_prev,
+                         double g_start, double v_next)
+{
+    if (v_next - pv->v <= 4e-3)
+        return pv->v + g_prev / (g_prev - g_start) * (v_next - pv->v);
+    const wdr_pixel_dev *d = tab->dev;
+    double v_n = wdr_pixel_voltage(d, tab->q0_nom + p->e0 - p->ie * pv->t) - p->d;
+    /* G + V_T2(G) = v_n with s = sqrt(phi + G): s^2 + gamma s - (v_n + phi + gamma sqrt(phi) - vt0) = 0 */
+    double r = v_n + d->phi2f + d->gamma * sqrt(d->phi2f) - d->vt0_m2;
+    double sq = 0.5 * (-d->gamma + sqrt(d->gamma * d->gamma + 4.0 * (r > 0 ? r : 0)));
+    return clampd(sq * sq - d->phi2f, pv->v, v_next);
+}
+
 /* Held G voltage and the time M2 turned off, for one pixel and frame. */
 void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, double *v_hold, double *t_cross)
 {
@@ -94,7 +110,15 @@ void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, double *v_hold, 
         *t_cross = pv->t + f * (nd->t - pv->t);
         return;
     }
-    /* a step: M2 turned off when the collected charge reached the step's threshold */
+    double g_start = gk + p->ie * (nd->t - pv->t); /* the condition as the step began */
+    if (g_start <= 0) {
+        /* the node was already below this step's turn-off level when V_ref jumped: M2 let G
+         * rise only until it turned off, to h^-1(V_N) of this pixel */
+        *v_hold = jump_level(tab, p, pv, crossing_g(pv, p), g_start, nd->v);
+        *t_cross = pv->t;
+        return;
+    }
+    /* within the step: M2 turned off when the collected charge reached the step's threshold */
     *v_hold = nd->v;
     *t_cross = p->ie > 0 ? clampd((gk + p->ie * nd->t) / p->ie, pv->t, nd->t) : nd->t;
 }

@@ -79,8 +79,10 @@ static void crossing_current_span(const sim_ramp_table *tab, double *lo, double 
     }
 }
 
-static int build_guess(sim_ramp_table *tab)
+static int build_guess(const wdr_sim *s, sim_ramp_table *tab)
 {
+    tab->dev = &s->nom;
+    tab->q0_nom = s->q0_nom;
     double lo, hi;
     crossing_current_span(tab, &lo, &hi);
     lo = fmax(lo * 0.5, 1e-30);
@@ -155,7 +157,7 @@ int sim_table_from_lut(const wdr_sim *s, const wdr_lut_view *lut, sim_ramp_table
         if (fill_node(s, &out->node[++k], out->t_int, code_volts(lut, code)))
             return sim_table_free(out), WDR_E_INVAL;
     }
-    return build_guess(out);
+    return build_guess(s, out);
 }
 
 static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
@@ -196,5 +198,5 @@ int sim_table_from_ramp(const wdr_sim *s, const double *t, const double *v, int 
         rc |= fill_node(s, &out->node[k++], t_int, clampd(v[n - 1], lo, hi));
     if (rc)
         return sim_table_free(out), WDR_E_INVAL;
-    return build_guess(out);
+    return build_guess(s, out);
 }
