@@ -32,7 +32,7 @@ static double lsb_volts(const wdr_board *b)
 static double probe_out(const wdr_sim *s, const sim_ramp_table *tab, const sim_px *p, double sf_k, double droop)
 {
     double v, t;
-    sim_pixel_hold(tab, p, &v, &t);
+    sim_pixel_hold(tab, p, 0, &v, &t);
     return sim_adc(&s->board, sim_sf_out(s, sf_k, v - droop), 0, 0);
 }
 
@@ -87,7 +87,7 @@ static double est_shot(const wdr_sim *s, const sim_ramp_table *tab, const probe_
     for (int k = 0; k < ps->n; k++) {
         double v, t;
         sim_px p = {0, 0, ps->amps[k]};
-        sim_pixel_hold(tab, &p, &v, &t);
+        sim_pixel_hold(tab, &p, 1, &v, &t);
         p.e0 = SIM_NORMAL_MAX * sqrt(SIM_Q_E * ps->amps[k] * t);
         worst = fmax(worst, fabs(probe_out(s, tab, &p, s->sf_k_nom, 0) - nominal_out(s, tab, ps->amps[k])));
     }
@@ -106,7 +106,7 @@ static double est_dac(const wdr_sim *s, const probe_set *ps)
     double v_lo = INFINITY, v_hi = -INFINITY, step = 0, v, t;
     for (int k = 0; k < ps->n; k++) {
         sim_px p = {0, 0, ps->amps[k]};
-        sim_pixel_hold(st, &p, &v, &t);
+        sim_pixel_hold(st, &p, 0, &v, &t);
         v_lo = fmin(v_lo, v);
         v_hi = fmax(v_hi, v);
     }
@@ -199,7 +199,7 @@ static void fill_fixed_view(const wdr_sim *s, sim_plan *plan)
     sim_fixed_view *f = &plan->fixed;
     const float *nom = s->nominal_fx;
     if (plan->on[WDR_FX_MISMATCH])
-        *f = (sim_fixed_view){s->fx.dq0, s->fx.dvt2, s->fx.cscale, s->fx.idark, s->fx.sf_k, s->fx.ktc_q, 1};
+        *f = (sim_fixed_view){s->fx.dq0, s->fx.dvt2, s->fx.cinv, s->fx.idark, s->fx.sf_k, s->fx.ktc_q, 1};
     else
         *f = (sim_fixed_view){nom, nom + 1, nom + 2, nom + 3, nom + 4, nom + 5, 0};
 }
@@ -219,5 +219,6 @@ void sim_plan_effects(wdr_sim *s, sim_plan *plan)
         }
     decide_auto(s, est, plan);
     plan->leak_v_per_s = plan->on[WDR_FX_LEAKAGE] ? leak_rate(s) : 0;
+    sim_adc_line(&s->board, &plan->adc_scale, &plan->adc_zero);
     fill_fixed_view(s, plan);
 }

@@ -66,7 +66,7 @@ static void draw_pixel(wdr_sim *s, long i)
     double v_n0 = reset_level(n, vt1);
     s->fx.dq0[i] = (float)(wdr_pixel_charge(n, v_n0) - s->q0_nom);
     s->fx.dvt2[i] = (float)dvt2;
-    s->fx.cscale[i] = (float)c;
+    s->fx.cinv[i] = (float)(1.0 / c);
     s->fx.idark[i] = (float)(b->dark_current_a * exp(b->dark_sigma_ln * draw(seed, SIM_RNG_DARK, i)));
     s->fx.sf_k[i] = (float)sf_constant(n, vt3, fmax(beta, 1e-3 * n->beta3));
     s->fx.ktc_q[i] = (float)(sqrt(SIM_K_B * b->temperature_k * c * nominal_cap(n, v_n0)) / c);
@@ -85,7 +85,7 @@ static void set_nominal(wdr_sim *s)
 
 static int alloc_fixed(wdr_sim *s, long n)
 {
-    float **arrays[] = {&s->fx.dq0, &s->fx.dvt2, &s->fx.cscale, &s->fx.idark, &s->fx.sf_k, &s->fx.ktc_q,
+    float **arrays[] = {&s->fx.dq0, &s->fx.dvt2, &s->fx.cinv, &s->fx.idark, &s->fx.sf_k, &s->fx.ktc_q,
                         &s->hold_v, &s->hold_t};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         if (!(*arrays[k] = malloc((size_t)n * sizeof(float))))
@@ -124,7 +124,7 @@ void wdr_sim_destroy(wdr_sim *s)
 {
     if (!s)
         return;
-    float *arrays[] = {s->fx.dq0, s->fx.dvt2, s->fx.cscale, s->fx.idark, s->fx.sf_k, s->fx.ktc_q,
+    float *arrays[] = {s->fx.dq0, s->fx.dvt2, s->fx.cinv, s->fx.idark, s->fx.sf_k, s->fx.ktc_q,
                        s->hold_v, s->hold_t, s->amps};
     for (size_t k = 0; k < sizeof arrays / sizeof arrays[0]; k++)
         free(arrays[k]);
@@ -243,10 +243,10 @@ int wdr_sim_pixel_devices(const wdr_sim *s, int x, int y, wdr_sim_pixel_truth *o
     if (x < 0 || y < 0 || x >= s->width || y >= s->height)
         return WDR_E_INVAL;
     long i = (long)y * s->width + x;
-    double c = s->fx.cscale[i];
+    double c = 1.0 / s->fx.cinv[i];
     out->dq0_c = (s->q0_nom + s->fx.dq0[i]) * c - s->q0_nom;
     out->dvt2_v = s->fx.dvt2[i];
-    out->c_pd_scale = s->fx.cscale[i];
+    out->c_pd_scale = c;
     out->dark_a = s->fx.idark[i];
     out->sf_k_v = s->fx.sf_k[i];
     return WDR_OK;

@@ -14,8 +14,8 @@
  * node h(v): a = Q(V_N0) - Q(h), ch = C(h), ch2 = C'(h)/2, so a pixel whose M2 threshold is
  * off by d has Q(V_N0) - Q(h + d) = a - d (ch + d ch2) to third order in d (d ~ 10 mV). */
 typedef struct sim_node {
-    double t, a, ch, ch2;
-    double v;
+    double t, a;
+    float ch, ch2, v, inv_t; /* inv_t: 1/t, 0 at t = 0 */
 } sim_node;
 
 /* The ramp as the crossing search sees it, plus a guess table indexed by the float bits of the
@@ -39,7 +39,7 @@ typedef struct sim_ramp_table {
 typedef struct sim_fixed {
     float *dq0;      /* Q_nom(V_N0 of this pixel) - Q_nom(V_N0 nominal): M1 threshold */
     float *dvt2;     /* M2 threshold offset, V */
-    float *cscale;   /* C_PD / nominal */
+    float *cinv;     /* nominal C_PD / this pixel's: currents divide by the C_PD scale */
     float *idark;    /* dark current, A (lognormal spread) */
     float *sf_k;     /* source-follower constant: phi + gamma sqrt(phi) - vt0_3 - sqrt(2 I_b / beta3) */
     float *ktc_q;    /* reset-noise charge sigma sqrt(kT C(V_N0)), in nominal units */
@@ -55,7 +55,7 @@ typedef struct sim_px {
 /* The fixed pattern one render uses: the chip's arrays (stride 1) or, with mismatch off, the
  * nominal values (stride 0). */
 typedef struct sim_fixed_view {
-    const float *dq0, *dvt2, *cscale, *idark, *sf_k, *ktc_q;
+    const float *dq0, *dvt2, *cinv, *idark, *sf_k, *ktc_q;
     long stride;
 } sim_fixed_view;
 
@@ -64,6 +64,7 @@ typedef struct sim_plan {
     sim_fixed_view fixed;
     int on[WDR_FX_COUNT];
     double leak_v_per_s; /* hold droop rate, V/s (0 if leakage is off) */
+    double adc_scale, adc_zero; /* code = adc_scale * v_sf + adc_zero, before rounding */
 } sim_plan;
 
 typedef void (*wdr_sim_progress_fn)(void *ctx, int rows_done, int rows_total);
@@ -75,7 +76,7 @@ struct wdr_sim {
     wdr_pixel_dev nom;
     double v_n0_nom, q0_nom, sf_k_nom, ktc_q_nom, sqrt_phi;
     sim_fixed fx;
-    float nominal_fx[6];   /* dq0, dvt2, cscale, idark, sf_k, ktc_q of the nominal pixel */
+    float nominal_fx[6];   /* dq0, dvt2, cinv, idark, sf_k, ktc_q of the nominal pixel */
     wdr_fx_mode mode[WDR_FX_COUNT];
     double tolerance_lsb;
     int reference;
@@ -105,9 +106,10 @@ int sim_table_from_ramp(const wdr_sim *s, const double *t, const double *v, int 
 void sim_table_free(sim_ramp_table *t);
 
 /* sim_pixel.c */
-void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, double *v_hold, double *t_cross);
+void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, int need_t, double *v_hold, double *t_cross);
 double sim_sf_out(const wdr_sim *s, double sf_k, double v_g);
 double sim_adc(const wdr_board *b, double v, int quantise, int clip);
+void sim_adc_line(const wdr_board *b, double *scale, double *zero);
 void sim_expose_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, int row, float *v_hold,
                     float *t_cross);
 void sim_read_row_codes(const wdr_sim *s, const sim_plan *plan, double t_int, int row, const float *v_hold,

@@ -13,11 +13,10 @@ static inline double crossing_g(const sim_node *nd, const sim_px *p)
     return nd->a + p->e0 - p->d * (nd->ch + p->d * nd->ch2) - p->ie * nd->t;
 }
 
+/* The float bits of a positive current rise with it: their top bits are a cheap log2. */
 static inline int guess_node(const sim_ramp_table *tab, double amps)
 {
-    if (!(amps > 0))
-        return tab->guess[0];
-    float f = amps < 1e30 ? (float)amps : 1e30f;
+    float f = amps > 1e-30 ? (amps < 1e30 ? (float)amps : 1e30f) : 1e-30f;
     uint32_t u;
     memcpy(&u, &f, sizeof u);
     int64_t b = (int64_t)(u >> SIM_GUESS_SHIFT) - tab->guess_base;
@@ -58,18 +57,32 @@ static int walk_first(const sim_ramp_table *tab, const sim_px *p, int k)
     return k;
 }
 
-/* Guess twice: once from the current alone, then with this pixel's offsets folded into an
- * equivalent nominal current at the first guess. Usually lands within a step or two. */
-static int search_first(const sim_ramp_table *tab, const sim_px *p)
+/* Second guess: this pixel's offsets folded into an equivalent nominal current at the first
+ * guess k. Usually lands within a step of the answer. */
+static inline int refine_guess(const sim_ramp_table *tab, const sim_px *p, int k)
 {
-    int k = guess_node(tab, p->ie);
     const sim_node *nd = &tab->node[k];
-    if (nd->t > 0)
-        k = guess_node(tab, p->ie - (p->e0 - p->d * (nd->ch + p->d * nd->ch2)) / nd->t);
+    return guess_node(tab, p->ie - (p->e0 - p->d * (nd->ch + p->d * nd->ch2)) * nd->inv_t);
+}
+
+/* First crossed node, from a guess k. */
+static inline int settle(const sim_ramp_table *tab, const sim_px *p, int k)
+{
+    /* the usual case, tested without a loop: node k crossed, node k-1 not */
+    int before = k > 0 ? k - 1 : 0;
+    double g_k = crossing_g(&tab->node[k], p), g_before = crossing_g(&tab->node[before], p);
+    if (__builtin_expect(g_k <= 0 && (k == 0 || g_before > 0), 1))
+        return k;
     return walk_first(tab, p, k);
 }
 
 static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
+
+/* floor(x + 0.5) without a libm call on the usual in-range codes */
+static inline double round_half_up(double x)
+{
+    return x >= 0 && x < 2e9 ? (double)(int64_t)(x + 0.5) : floor(x + 0.5);
+}
 
 /* G level reached when V_ref jumps from pv->v to v_next with the node between the two steps'
  * turn-off levels. The crossing condition is linear in the charge terms between the nodes; for
@@ -88,9 +101,9 @@ static double jump_level(const sim_ramp_table *tab, const sim_px *p, const sim_n
 }
 
 /* Held G voltage and the time M2 turned off, for one pixel and frame. */
-void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, double *v_hold, double *t_cross)
+static inline void hold_at(const sim_ramp_table *tab, const sim_px *p, int k, int need_t, double *v_hold,
+                           double *t_cross)
 {
-    int k = search_first(tab, p);
     const sim_node *nd = &tab->node[k];
     double gk = crossing_g(nd, p);
     if (gk > 0) { /* never crossed: G followed the ramp to the end */
@@ -120,7 +133,13 @@ void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, double *v_hold, 
     }
     /* within the step: M2 turned off when the collected charge reached the step's threshold */
     *v_hold = nd->v;
-    *t_cross = p->ie > 0 ? clampd((gk + p->ie * nd->t) / p->ie, pv->t, nd->t) : nd->t;
+    *t_cross = need_t && p->ie > 0 ? clampd((gk + p->ie * nd->t) / p->ie, pv->t, nd->t) : nd->t;
+}
+
+void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, int need_t, double *v_hold, double *t_cross)
+{
+    int k = refine_guess(tab, p, guess_node(tab, p->ie));
+    hold_at(tab, p, settle(tab, p, k), need_t, v_hold, t_cross);
 }
 
 /* M3 source follower, closed form of wdr_pixel_sf_out: with s = sqrt(phi + v_o),
@@ -134,6 +153,14 @@ double sim_sf_out(const wdr_sim *s, double sf_k, double v_g)
     return r * r - s->nom.phi2f;
 }
 
+/* The ADC as a line in the source-follower voltage: code = scale * v + zero. */
+void sim_adc_line(const wdr_board *b, double *scale, double *zero)
+{
+    double full = (double)((1u << b->adc_bits) - 1u), span = b->adc_hi_v - b->adc_lo_v;
+    *scale = b->adc_gain / span * full;
+    *zero = (b->adc_offset_v - b->adc_lo_v) / span * full;
+}
+
 /* Column ADC: gain and offset, then codes over [v_lo, v_hi]; optional rounding and rails. */
 double sim_adc(const wdr_board *b, double v, int quantise, int clip)
 {
@@ -144,30 +171,60 @@ double sim_adc(const wdr_board *b, double v, int quantise, int clip)
     return clip ? clampd(x, 0.0, full) : x;
 }
 
-/* One row's pixels through reset, integration and the compare: held voltages and times. */
+/* A pixel's inputs for this frame: fixed pattern, current and reset noise. */
+static inline sim_px pixel_inputs(const wdr_sim *s, const sim_plan *plan, long i)
+{
+    const sim_fixed_view *f = &plan->fixed;
+    long j = i * f->stride;
+    double amps = s->amps ? s->amps[i] : s->uniform_amps;
+    if (plan->on[WDR_FX_DARK])
+        amps += f->idark[j];
+    sim_px p = {f->dq0[j], f->dvt2[j], amps * f->cinv[j]};
+    if (plan->on[WDR_FX_KTC])
+        p.e0 += f->ktc_q[j] * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_KTC, (uint64_t)i));
+    return p;
+}
+
+/* Electrons collected until M2 turned off are Poisson (Gaussian at these counts): move the
+ * charge balance by one draw and let the crossing settle again from where it was. */
+static inline int add_shot_noise(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, long i,
+                                 sim_px *p, int k, double t)
+{
+    double sigma = sqrt(SIM_Q_E * p->ie * t * plan->fixed.cinv[i * plan->fixed.stride]);
+    p->e0 -= sigma * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_SHOT, (uint64_t)i));
+    return settle(tab, p, k);
+}
+
+#define BATCH 32
+
+/* One row's pixels through reset, integration and the compare: held voltages and times.
+ * Pixels go in batches, stage by stage, so the table look-ups of neighbouring pixels overlap
+ * instead of waiting on each other. */
 void sim_expose_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, int row, float *v_hold,
                     float *t_cross)
 {
-    const sim_fixed_view *f = &plan->fixed;
-    uint64_t seed = s->frame_seed;
-    for (int x = 0; x < s->width; x++) {
-        long i = (long)row * s->width + x, j = i * f->stride;
-        double amps = s->amps ? s->amps[i] : s->uniform_amps, c = f->cscale[j];
-        if (plan->on[WDR_FX_DARK])
-            amps += f->idark[j];
-        sim_px p = {f->dq0[j], f->dvt2[j], amps / c};
-        if (plan->on[WDR_FX_KTC])
-            p.e0 += f->ktc_q[j] * sim_normal((uint32_t)sim_rng_u64(seed, SIM_RNG_KTC, (uint64_t)i));
-        double v, t;
-        sim_pixel_hold(tab, &p, &v, &t);
-        if (plan->on[WDR_FX_SHOT] && p.ie * t > 0) {
-            /* electrons collected until M2 turned off are Poisson (Gaussian at these counts) */
-            double sigma = sqrt(SIM_Q_E * p.ie * t / c);
-            p.e0 -= sigma * sim_normal((uint32_t)sim_rng_u64(seed, SIM_RNG_SHOT, (uint64_t)i));
-            sim_pixel_hold(tab, &p, &v, &t);
+    int need_t = plan->on[WDR_FX_SHOT] || plan->on[WDR_FX_LEAKAGE];
+    int offsets = plan->on[WDR_FX_MISMATCH] || plan->on[WDR_FX_KTC];
+    sim_px p[BATCH];
+    int k[BATCH];
+    for (int x0 = 0; x0 < s->width; x0 += BATCH) {
+        int n = s->width - x0 < BATCH ? s->width - x0 : BATCH;
+        long i0 = (long)row * s->width + x0;
+        for (int j = 0; j < n; j++) {
+            p[j] = pixel_inputs(s, plan, i0 + j);
+            k[j] = guess_node(tab, p[j].ie);
         }
-        v_hold[x] = (float)v;
-        t_cross[x] = (float)t;
+        for (int j = 0; offsets && j < n; j++)
+            k[j] = refine_guess(tab, &p[j], k[j]);
+        for (int j = 0; j < n; j++) {
+            double v, t;
+            k[j] = settle(tab, &p[j], k[j]);
+            hold_at(tab, &p[j], k[j], need_t, &v, &t);
+            if (plan->on[WDR_FX_SHOT] && p[j].ie * t > 0)
+                hold_at(tab, &p[j], add_shot_noise(s, plan, tab, i0 + j, &p[j], k[j], t), need_t, &v, &t);
+            v_hold[x0 + j] = (float)v;
+            t_cross[x0 + j] = (float)t;
+        }
     }
 }
 
@@ -177,6 +234,7 @@ void sim_read_row_codes(const wdr_sim *s, const sim_plan *plan, double t_int, in
 {
     const sim_fixed_view *f = &plan->fixed;
     int clip = plan->on[WDR_FX_CLIPPING];
+    float full = (float)((1u << s->board.adc_bits) - 1u);
     quantise = quantise && plan->on[WDR_FX_ADC_QUANT];
     for (int x = 0; x < s->width; x++) {
         long i = (long)row * s->width + x;
@@ -186,6 +244,9 @@ void sim_read_row_codes(const wdr_sim *s, const sim_plan *plan, double t_int, in
         double vo = sim_sf_out(s, f->sf_k[i * f->stride], vg);
         if (plan->on[WDR_FX_READ])
             vo += s->board.read_noise_v * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_READ, (uint64_t)i));
-        codes[x] = (float)sim_adc(&s->board, vo, quantise, clip);
+        double code = plan->adc_scale * vo + plan->adc_zero;
+        if (quantise)
+            code = round_half_up(code);
+        codes[x] = (float)(clip ? clampd(code, 0.0, full) : code);
     }
 }

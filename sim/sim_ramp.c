@@ -36,11 +36,13 @@ static int fill_node(const wdr_sim *s, sim_node *nd, double t, double v)
     double h = wdr_pixel_turnoff_node(&s->nom, v);
     if (!(h > -s->nom.pb) || !isfinite(h))
         return WDR_E_INVAL;
+    double ch = nominal_cap(&s->nom, h);
     nd->t = t;
-    nd->v = v;
+    nd->inv_t = t > 0 ? (float)(1.0 / t) : 0.0f;
+    nd->v = (float)v;
     nd->a = s->q0_nom - wdr_pixel_charge(&s->nom, h);
-    nd->ch = nominal_cap(&s->nom, h);
-    nd->ch2 = -0.5 * s->nom.mj / (s->nom.pb + h) * nd->ch;
+    nd->ch = (float)ch;
+    nd->ch2 = (float)(-0.5 * s->nom.mj / (s->nom.pb + h) * ch);
     return WDR_OK;
 }
 
@@ -146,14 +148,18 @@ int sim_table_from_lut(const wdr_sim *s, const wdr_lut_view *lut, sim_ramp_table
     out->n = n;
     out->t_int = lut->h.t_integration_ticks * tick;
     int k = -1;
+    uint16_t prev = 0;
     for (uint32_t i = 0; i < lut->h.entry_count; i++) {
         uint32_t t;
         uint16_t code;
         wdr_lut_entry(lut, i, &t, &code);
-        if (k >= 0 && code_volts(lut, code) == out->node[k].v)
+        if (k >= 0 && code == prev)
             continue;
-        if (k >= 0)
-            out->node[k].t = t * tick; /* the previous step ends where this one starts */
+        prev = code;
+        if (k >= 0) { /* the previous step ends where this one starts */
+            out->node[k].t = t * tick;
+            out->node[k].inv_t = (float)(1.0 / (t * tick));
+        }
         if (fill_node(s, &out->node[++k], out->t_int, code_volts(lut, code)))
             return sim_table_free(out), WDR_E_INVAL;
     }

@@ -30,7 +30,7 @@ static void store_u16(const wdr_sim *s, uint16_t *out, const float *codes)
 {
     float full = (float)((1u << s->board.adc_bits) - 1u);
     for (int x = 0; x < s->width; x++)
-        out[x] = (uint16_t)(codes[x] <= 0 ? 0 : (codes[x] >= full ? full : floorf(codes[x] + 0.5f)));
+        out[x] = (uint16_t)(codes[x] <= 0 ? 0 : (codes[x] >= full ? full : (int)(codes[x] + 0.5f)));
 }
 
 static void store_codes(render_job *job, int row, const float *codes)
