@@ -1,0 +1,544 @@
+/* Array calibration: bad pixels, nominal curve, per-pixel fits. Table building is in cal_table.c. */
+#include "cal_fit.h"
+#include "wdr_err.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void wdr_cal_config_defaults(wdr_cal_config *c, int model)
+{
+    memset(c, 0, sizeof *c);
+    c->model = model;
+    c->form = model == WDR_MODEL_SIMPLE3 ? WDR_FORM_MOEBIUS : WDR_FORM_POLY;
+    c->n_coeffs = model == WDR_MODEL_SIMPLE3 ? 3 : 5;
+    c->use_dark_ref = model != WDR_MODEL_LSQ;
+    c->raw_max = 4095;
+    c->out_scale = 16.0f;
+    c->out_max = 65535;
+    c->stuck_frac = 0.01;
+    c->dead_frac = 0.5;
+    c->hot_frac = 0.25;
+    c->max_residual = 0.05;
+}
+
+/* ---- PCHIP (Fritsch-Carlson): monotone data give a monotone curve, no overshoot ---- */
+
+static double pchip_end_slope(double h0, double h1, double d0, double d1)
+{
+    double m = ((2 * h0 + h1) * d0 - h0 * d1) / (h0 + h1);
+    if (m * d0 <= 0)
+        return 0;
+    if (d0 * d1 <= 0 && fabs(m) > fabs(3 * d0))
+        return 3 * d0;
+    return m;
+}
+
+int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n)
+{
+    double h[WDR_PCHIP_MAX], d[WDR_PCHIP_MAX];
+    if (n < 2 || n > WDR_PCHIP_MAX)
+        return WDR_E_INVAL;
+    p->n = n;
+    for (int k = 0; k < n; k++) {
+        if (!isfinite(lx[k]) || !isfinite(y[k]) || (k > 0 && !(lx[k] > lx[k - 1])))
+            return WDR_E_INVAL;
+        p->lx[k] = lx[k];
+        p->y[k] = y[k];
+    }
+    for (int k = 0; k < n - 1; k++) {
+        h[k] = lx[k + 1] - lx[k];
+        d[k] = (y[k + 1] - y[k]) / h[k];
+    }
+    if (n == 2) {
+        p->m[0] = p->m[1] = d[0];
+        return WDR_OK;
+    }
+    for (int k = 1; k < n - 1; k++) {
+        if (d[k - 1] * d[k] <= 0) {
+            p->m[k] = 0;
+            continue;
+        }
+        double w1 = 2 * h[k] + h[k - 1], w2 = h[k] + 2 * h[k - 1];
+        p->m[k] = (w1 + w2) / (w1 / d[k - 1] + w2 / d[k]);
+    }
+    p->m[0] = pchip_end_slope(h[0], h[1], d[0], d[1]);
+    p->m[n - 1] = pchip_end_slope(h[n - 2], h[n - 3], d[n - 2], d[n - 3]);
+    return WDR_OK;
+}
+
+static int pchip_segment(const wdr_pchip *p, double lx)
+{
+    int lo = 0, hi = p->n - 1;
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (lx < p->lx[mid])
+            hi = mid;
+        else
+            lo = mid;
+    }
+    return lo;
+}
+
+/* Outside the knots the curve continues as a straight line in ln x along the end secant: the
+ * end tangent of a flattening response can be zero, and a flat extension has no inverse. */
+static double end_secant(const wdr_pchip *p, int last)
+{
+    int k = last ? p->n - 2 : 0;
+    return (p->y[k + 1] - p->y[k]) / (p->lx[k + 1] - p->lx[k]);
+}
+
+double wdr_pchip_eval(const wdr_pchip *p, double lx)
+{
+    if (lx <= p->lx[0])
+        return p->y[0] + end_secant(p, 0) * (lx - p->lx[0]);
+    if (lx >= p->lx[p->n - 1])
+        return p->y[p->n - 1] + end_secant(p, 1) * (lx - p->lx[p->n - 1]);
+    int k = pchip_segment(p, lx);
+    double h = p->lx[k + 1] - p->lx[k], t = (lx - p->lx[k]) / h, t2 = t * t, t3 = t2 * t;
+    return (2 * t3 - 3 * t2 + 1) * p->y[k] + (t3 - 2 * t2 + t) * h * p->m[k] + (-2 * t3 + 3 * t2) * p->y[k + 1] +
+           (t3 - t2) * h * p->m[k + 1];
+}
+
+double wdr_pchip_slope(const wdr_pchip *p, double lx)
+{
+    if (lx <= p->lx[0])
+        return end_secant(p, 0);
+    if (lx >= p->lx[p->n - 1])
+        return end_secant(p, 1);
+    int k = pchip_segment(p, lx);
+    double h = p->lx[k + 1] - p->lx[k], t = (lx - p->lx[k]) / h, t2 = t * t;
+    return (6 * t2 - 6 * t) / h * p->y[k] + (3 * t2 - 4 * t + 1) * p->m[k] + (-6 * t2 + 6 * t) / h * p->y[k + 1] +
+           (3 * t2 - 2 * t) * p->m[k + 1];
+}
+
+/* ---- the nominal pixel ---- */
+
+double wdr_nominal_eval(const wdr_nominal *n, double x)
+{
+    switch (n->model) {
+    case WDR_MODEL_SIMPLE3:
+        return wdr_simple3_eval(&n->s3, x / n->s3.x_scale);
+    case WDR_MODEL_COMPLEX4:
+        return wdr_complex4_eval(&n->c4, x / n->c4.x_scale);
+    default:
+        return wdr_pchip_eval(&n->curve, log(fmax(x, 1e-30)));
+    }
+}
+
+/* Bisection in ln x on a falling curve: safe for any monotone nominal, and 80 halvings of
+ * [1e-22, 1e-2] A reach double precision. */
+static double invert_pchip(const wdr_pchip *p, double y)
+{
+    double lo = log(1e-22), hi = log(1e-2);
+    if (y >= wdr_pchip_eval(p, lo))
+        return 0;
+    if (y <= wdr_pchip_eval(p, hi))
+        return exp(hi);
+    for (int i = 0; i < 80; i++) {
+        double mid = 0.5 * (lo + hi);
+        if (wdr_pchip_eval(p, mid) > y)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return exp(0.5 * (lo + hi));
+}
+
+double wdr_nominal_invert(const wdr_nominal *n, double y)
+{
+    double u, cap;
+    int clamped;
+    switch (n->model) {
+    case WDR_MODEL_SIMPLE3:
+        cap = 10 * n->x_hi / n->s3.x_scale;
+        wdr_simple3_invert(&n->s3, y, cap, &u);
+        return u * n->s3.x_scale;
+    case WDR_MODEL_COMPLEX4:
+        cap = 10 * n->x_hi / n->c4.x_scale;
+        if (wdr_complex4_invert(&n->c4, y, cap, &u, &clamped) == WDR_FIT_FLAT)
+            u = cap;
+        return u * n->c4.x_scale;
+    default:
+        return invert_pchip(&n->curve, y);
+    }
+}
+
+static double complex4_slope_u(const wdr_complex4 *m, double u)
+{
+    double t = u + m->d, num = m->p + m->q * t - m->r * t * t, den = 1 + m->s * t;
+    return ((m->q - 2 * m->r * t) * den - num * m->s) / (den * den);
+}
+
+double wdr_nominal_log_slope(const wdr_nominal *n, double x)
+{
+    x = fmax(x, n->x_lo * 1e-3);
+    switch (n->model) {
+    case WDR_MODEL_SIMPLE3:
+        return fabs(wdr_simple3_slope(&n->s3, x / n->s3.x_scale) * x / n->s3.x_scale);
+    case WDR_MODEL_COMPLEX4:
+        return fabs(complex4_slope_u(&n->c4, x / n->c4.x_scale) * x / n->c4.x_scale);
+    default:
+        return fabs(wdr_pchip_slope(&n->curve, log(x)));
+    }
+}
+
+/* ---- bad pixels ---- */
+
+static int cmp_float(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+/* Median of n values (copied: the caller's data stays in order). */
+static double median_of(const float *v, long n, float *scratch)
+{
+    long m = 0;
+    for (long i = 0; i < n; i++)
+        if (isfinite(v[i]))
+            scratch[m++] = v[i];
+    if (m == 0)
+        return 0;
+    qsort(scratch, (size_t)m, sizeof *scratch, cmp_float);
+    return m % 2 ? scratch[m / 2] : 0.5 * (scratch[m / 2 - 1] + scratch[m / 2]);
+}
+
+/* Robust spread: 1.4826 * median absolute deviation. */
+static double mad_sigma(const float *v, long n, double med, float *scratch)
+{
+    float *dev = scratch + n;
+    for (long i = 0; i < n; i++)
+        dev[i] = isfinite(v[i]) ? fabsf(v[i] - (float)med) : 0.0f;
+    return 1.4826 * median_of(dev, n, scratch);
+}
+
+static void flag_range(const wdr_cal_levels *lv, const wdr_cal_config *cfg, double med_swing, uint8_t *flags)
+{
+    long np = (long)lv->width * lv->height;
+    for (long i = 0; i < np; i++) {
+        double lo = INFINITY, hi = -INFINITY;
+        for (int k = 0; k < lv->n; k++) {
+            double y = lv->frames[(long)k * np + i];
+            if (!isfinite(y)) {
+                flags[i] |= WDR_PIX_DEAD;
+                break;
+            }
+            lo = fmin(lo, y);
+            hi = fmax(hi, y);
+            if (y <= 0.5 || y >= cfg->raw_max - 0.5)
+                flags[i] |= WDR_PIX_SATURATED;
+        }
+        double swing = lv->frames[i] - lv->frames[(long)(lv->n - 1) * np + i];
+        if (hi - lo <= cfg->stuck_frac * med_swing)
+            flags[i] |= WDR_PIX_STUCK;
+        else if (!(swing >= cfg->dead_frac * med_swing))
+            flags[i] |= WDR_PIX_DEAD;
+    }
+}
+
+static void flag_hot(const wdr_cal_levels *lv, const wdr_cal_config *cfg, float *scratch, uint8_t *flags)
+{
+    long np = (long)lv->width * lv->height;
+    double med_dark = median_of(lv->dark, np, scratch);
+    double sig = mad_sigma(lv->dark, np, med_dark, scratch);
+    double med_low = median_of(lv->frames, np, scratch);
+    double limit = fmax(8 * sig, cfg->hot_frac * fabs(med_dark - med_low));
+    for (long i = 0; i < np; i++)
+        if (!isfinite(lv->dark[i]) || med_dark - lv->dark[i] > limit)
+            flags[i] |= WDR_PIX_HOT;
+}
+
+void wdr_cal_detect_bad(const wdr_cal_levels *lv, const wdr_cal_config *cfg, uint8_t *flags, int *saturated_levels)
+{
+    long np = (long)lv->width * lv->height;
+    float *scratch = malloc(sizeof(float) * 2 * (size_t)np);
+    memset(flags, 0, (size_t)np);
+    *saturated_levels = 0;
+    if (!scratch || lv->n < 2) {
+        free(scratch);
+        return;
+    }
+    double first = median_of(lv->frames, np, scratch);
+    double last = median_of(lv->frames + (long)(lv->n - 1) * np, np, scratch);
+    for (int k = 0; k < lv->n; k++) {
+        double m = median_of(lv->frames + (long)k * np, np, scratch);
+        *saturated_levels += m <= 0.5 || m >= cfg->raw_max - 0.5;
+    }
+    flag_range(lv, cfg, first - last, flags);
+    if (lv->dark)
+        flag_hot(lv, cfg, scratch, flags);
+    free(scratch);
+}
+
+/* ---- per-pixel fits ---- */
+
+static int levels_needed(const wdr_cal_config *cfg)
+{
+    int ref = cfg->use_dark_ref ? 1 : 0;
+    switch (cfg->model) {
+    case WDR_MODEL_SIMPLE3:
+        return 3 + ref;
+    case WDR_MODEL_COMPLEX4:
+        return 4 + ref;
+    default:
+        return cfg->n_coeffs + 1;
+    }
+}
+
+static int params_of(int model, int n_coeffs)
+{
+    return model == WDR_MODEL_SIMPLE3 ? 4 : model == WDR_MODEL_COMPLEX4 ? 5 : n_coeffs;
+}
+
+/* The LSQ map's input variable: raw codes onto [-1, 1], the same as the table header's. */
+static double lsq_u(const wdr_cal_result *res, double y) { return 2 * y / res->cfg.raw_max - 1; }
+
+static double poly_eval(const double *c, int n, double u)
+{
+    double v = c[n - 1];
+    for (int k = n - 2; k >= 0; k--)
+        v = v * u + c[k];
+    return v;
+}
+
+/* Fit one pixel with a paper model; u[] and y[] already ordered (dark reference first). */
+static int fit_paper_pixel(const wdr_cal_result *res, const double *u, const double *y, double *par)
+{
+    int st, ref = res->cfg.use_dark_ref;
+    if (res->model == WDR_MODEL_SIMPLE3) {
+        wdr_simple3 m = {.x_scale = res->x_scale};
+        st = ref ? wdr_simple3_fit_dark(u + 1, y + 1, u[0], y[0], &m) : wdr_simple3_fit3(u, y, &m);
+        par[0] = m.a, par[1] = m.b, par[2] = m.c, par[3] = m.d;
+    } else {
+        wdr_complex4 m = {.x_scale = res->x_scale};
+        st = ref ? wdr_complex4_fit_dark(u + 1, y + 1, u[0], y[0], &m) : wdr_complex4_fit4(u, y, &m);
+        par[0] = m.p, par[1] = m.q, par[2] = m.r, par[3] = m.s, par[4] = m.d;
+    }
+    return st;
+}
+
+/* LSQ: the polynomial map from this pixel's codes to the nominal codes at the same currents,
+ * weighted so each residual is in units of ln x (i.e. relative current, the contrast error). */
+static int fit_lsq_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w,
+                         int n, double *par)
+{
+    int nc = res->n_params;
+    double a[WDR_CAL_MAX_LEVELS * WDR_CAL_MAX_COEFFS], t[WDR_CAL_MAX_LEVELS], rcond;
+    for (int k = 0; k < n; k++) {
+        double u = lsq_u(res, y[k]), p = 1;
+        for (int j = 0; j < nc; j++, p *= u)
+            a[k * nc + j] = p;
+        t[k] = target[k];
+    }
+    int st = wdr_lsq_solve(a, t, w, n, nc, par, &rcond);
+    if (st)
+        return st;
+    double ss = 0;
+    for (int k = 0; k < n; k++) {
+        double r = (poly_eval(par, nc, lsq_u(res, y[k])) - target[k]) * w[k];
+        ss += r * r;
+    }
+    if (!(sqrt(ss / n) <= res->cfg.max_residual))
+        return WDR_FIT_RESIDUAL;
+    /* the map must keep the pixel's order of brightness across its calibrated span */
+    for (int s = 0; s <= 16; s++) {
+        double yy = y[n - 1] + (y[0] - y[n - 1]) * s / 16.0, u = lsq_u(res, yy), dv = 0, p = 1;
+        for (int j = 1; j < nc; j++, p *= u)
+            dv += j * par[j] * p;
+        if (!(dv > 0))
+            return WDR_FIT_REVERSED;
+    }
+    return WDR_FIT_OK;
+}
+
+static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const double *med, char *err, int errlen)
+{
+    wdr_nominal *n = &res->nominal;
+    double u[WDR_CAL_MAX_LEVELS], lx[WDR_CAL_MAX_LEVELS], par[8] = {0};
+    n->model = res->model;
+    n->x_lo = lv->amps[0] > 0 ? lv->amps[0] : lv->amps[1];
+    n->x_hi = lv->amps[lv->n - 1];
+    for (int k = 0; k < lv->n; k++) {
+        u[k] = lv->amps[k] / res->x_scale;
+        lx[k] = log(fmax(lv->amps[k], 1e-30));
+    }
+    int st = WDR_FIT_OK;
+    if (res->model == WDR_MODEL_LSQ)
+        st = wdr_pchip_init(&n->curve, lx, med, lv->n) ? WDR_FIT_REVERSED : WDR_FIT_OK;
+    else
+        st = fit_paper_pixel(res, u, med, par);
+    n->s3 = (wdr_simple3){par[0], par[1], par[2], par[3], res->x_scale};
+    n->c4 = (wdr_complex4){par[0], par[1], par[2], par[3], par[4], res->x_scale, 0};
+    if (st)
+        snprintf(err, (size_t)errlen, "the array's median response cannot be fitted: %s", wdr_fit_status_name(st));
+    return st ? WDR_E_NUMERIC : WDR_OK;
+}
+
+static int check_levels(const wdr_cal_levels *lv, const wdr_cal_config *cfg, char *err, int errlen)
+{
+    int need = levels_needed(cfg);
+    if (cfg->model <= WDR_MODEL_NONE || cfg->model >= WDR_MODEL_COUNT) {
+        snprintf(err, (size_t)errlen, "unknown calibration model %d", cfg->model);
+        return WDR_E_INVAL;
+    }
+    if (cfg->model == WDR_MODEL_LSQ ? lv->n < need : lv->n != need) {
+        snprintf(err, (size_t)errlen, "model needs %s%d calibration levels, got %d",
+                 cfg->model == WDR_MODEL_LSQ ? "at least " : "", need, lv->n);
+        return WDR_E_INVAL;
+    }
+    if (lv->n > WDR_PCHIP_MAX || cfg->n_coeffs < 2 || cfg->n_coeffs > (int)WDR_CAL_MAX_COEFFS) {
+        snprintf(err, (size_t)errlen, "too many levels (%d) or bad coefficient count %d", lv->n, cfg->n_coeffs);
+        return WDR_E_INVAL;
+    }
+    for (int k = 0; k < lv->n; k++)
+        if (!isfinite(lv->amps[k]) || lv->amps[k] < 0 || (k > 0 && !(lv->amps[k] > lv->amps[k - 1]))) {
+            snprintf(err, (size_t)errlen, "calibration current %d (%g A) is not above the one before", k,
+                     lv->amps[k]);
+            return WDR_E_INVAL;
+        }
+    return WDR_OK;
+}
+
+static double geometric_centre(const wdr_cal_levels *lv)
+{
+    double s = 0;
+    int m = 0;
+    for (int k = 0; k < lv->n; k++)
+        if (lv->amps[k] > 0)
+            s += log(lv->amps[k]), m++;
+    return m ? exp(s / m) : 1e-11;
+}
+
+static int alloc_result(wdr_cal_result *res, long np)
+{
+    res->params = calloc((size_t)np * (size_t)res->n_params, sizeof(double));
+    res->flags = calloc((size_t)np, 1);
+    res->status = calloc((size_t)np, 1);
+    return res->params && res->flags && res->status ? WDR_OK : WDR_E_NOMEM;
+}
+
+/* Median response per level over the pixels not flagged so far. */
+static int level_medians(const wdr_cal_levels *lv, const uint8_t *flags, double *med)
+{
+    long np = (long)lv->width * lv->height;
+    float *good = malloc(sizeof(float) * 2 * (size_t)np);
+    if (!good)
+        return WDR_E_NOMEM;
+    for (int k = 0; k < lv->n; k++) {
+        long m = 0;
+        for (long i = 0; i < np; i++)
+            if (!flags[i])
+                good[m++] = lv->frames[(long)k * np + i];
+        med[k] = m ? median_of(good, m, good + np) : 0;
+    }
+    free(good);
+    return WDR_OK;
+}
+
+static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const double *med)
+{
+    long np = (long)lv->width * lv->height;
+    double u[WDR_CAL_MAX_LEVELS], y[WDR_CAL_MAX_LEVELS], w[WDR_CAL_MAX_LEVELS];
+    for (int k = 0; k < lv->n; k++) {
+        u[k] = lv->amps[k] / res->x_scale;
+        w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, lv->amps[k]), 1e-9);
+    }
+    for (long i = 0; i < np; i++) {
+        double *par = res->params + i * res->n_params;
+        if (res->flags[i])
+            continue;
+        for (int k = 0; k < lv->n; k++)
+            y[k] = lv->frames[(long)k * np + i];
+        int st = res->model == WDR_MODEL_LSQ ? fit_lsq_pixel(res, y, med, w, lv->n, par)
+                                             : fit_paper_pixel(res, u, y, par);
+        if (st) {
+            res->status[i] = (uint8_t)st;
+            res->flags[i] |= WDR_PIX_UNFIT;
+        }
+    }
+}
+
+static void count_flags(wdr_cal_result *res)
+{
+    long np = (long)res->width * res->height;
+    memset(res->n_flag, 0, sizeof res->n_flag);
+    memset(res->n_status, 0, sizeof res->n_status);
+    res->n_bad = 0;
+    for (long i = 0; i < np; i++) {
+        for (int b = 0; b < 8; b++)
+            res->n_flag[b] += (res->flags[i] >> b) & 1;
+        res->n_status[res->status[i]]++;
+        res->n_bad += res->flags[i] != 0;
+    }
+}
+
+int wdr_cal_fit_array(const wdr_cal_levels *lv, const wdr_cal_config *cfg, wdr_cal_result *res, char *err,
+                      int errlen)
+{
+    memset(res, 0, sizeof *res);
+    int rc = check_levels(lv, cfg, err, errlen);
+    if (rc)
+        return rc;
+    long np = (long)lv->width * lv->height;
+    res->width = lv->width;
+    res->height = lv->height;
+    res->model = cfg->model;
+    res->cfg = *cfg;
+    res->x_scale = geometric_centre(lv);
+    res->n_params = params_of(cfg->model, cfg->n_coeffs);
+    if ((rc = alloc_result(res, np))) {
+        snprintf(err, (size_t)errlen, "out of memory for %ld pixels", np);
+        return rc;
+    }
+    wdr_cal_detect_bad(lv, cfg, res->flags, &res->saturated_levels);
+    double med[WDR_CAL_MAX_LEVELS];
+    if ((rc = level_medians(lv, res->flags, med)) || (rc = fit_nominal(lv, res, med, err, errlen)))
+        return rc;
+    fit_all_pixels(lv, res, med);
+    count_flags(res);
+    return WDR_OK;
+}
+
+void wdr_cal_result_free(wdr_cal_result *res)
+{
+    free(res->params);
+    free(res->flags);
+    free(res->status);
+    res->params = NULL;
+    res->flags = res->status = NULL;
+}
+
+/* ---- recovery ---- */
+
+double wdr_cal_recover(const wdr_cal_result *res, long i, double y, int *status)
+{
+    const double *p = res->params + i * res->n_params;
+    double cap = 10 * res->nominal.x_hi / res->x_scale, u = 0;
+    int clamped = 0;
+    *status = WDR_FIT_OK;
+    if (!isfinite(y)) {
+        *status = WDR_FIT_NONFINITE;
+        return 0;
+    }
+    if (res->model == WDR_MODEL_SIMPLE3) {
+        wdr_simple3 m = {p[0], p[1], p[2], p[3], res->x_scale};
+        *status = wdr_simple3_invert(&m, y, cap, &u);
+    } else if (res->model == WDR_MODEL_COMPLEX4) {
+        wdr_complex4 m = {p[0], p[1], p[2], p[3], p[4], res->x_scale, 0};
+        *status = wdr_complex4_invert(&m, y, cap, &u, &clamped);
+    } else {
+        return wdr_nominal_invert(&res->nominal, poly_eval(p, res->n_params, lsq_u(res, y)));
+    }
+    if (clamped && !*status)
+        *status = WDR_FIT_ILL_COND;
+    return u * res->x_scale;
+}
+
+double wdr_cal_map(const wdr_cal_result *res, long i, double y)
+{
+    int st;
+    if (res->model == WDR_MODEL_LSQ)
+        return poly_eval(res->params + i * res->n_params, res->n_params, lsq_u(res, y));
+    return wdr_nominal_eval(&res->nominal, wdr_cal_recover(res, i, y, &st));
+}

@@ -1,0 +1,105 @@
+/* Array calibration: bad-pixel detection, per-pixel fits of a model, the nominal (array) curve,
+ * and the firmware table built from them. Inputs are averaged frames at known photocurrents
+ * (wdr_cal_levels); nothing here knows how the frames were made. */
+#ifndef WDR_CAL_FIT_H
+#define WDR_CAL_FIT_H
+#include "cal_model.h"
+#include "wdr_cal.h"
+#include <stdint.h>
+
+#define WDR_CAL_MAX_LEVELS 48
+#define WDR_PCHIP_MAX 64
+
+/* Averaged frames: frames[k * width * height + pixel] is the mean code at amps[k]. Levels rise
+ * strictly in amps; dark (may be NULL) is a frame with no light, used for hot pixels and DSNU. */
+typedef struct wdr_cal_levels {
+    int width, height, n;
+    double amps[WDR_CAL_MAX_LEVELS];
+    float *frames;
+    float *dark;
+} wdr_cal_levels;
+
+/* A monotone curve through (ln x_k, y_k): the array's median response (PCHIP, Fritsch-Carlson). */
+typedef struct wdr_pchip {
+    int n;
+    double lx[WDR_PCHIP_MAX], y[WDR_PCHIP_MAX], m[WDR_PCHIP_MAX];
+} wdr_pchip;
+
+/* The nominal pixel: what a corrected pixel reports for current x. */
+typedef struct wdr_nominal {
+    int model; /* enum wdr_cal_model_id: SIMPLE3 and COMPLEX4 use their model, LSQ the PCHIP */
+    wdr_simple3 s3;
+    wdr_complex4 c4;
+    wdr_pchip curve;
+    double x_lo, x_hi; /* calibrated range (A) */
+} wdr_nominal;
+
+double wdr_nominal_eval(const wdr_nominal *n, double x);
+/* Current for response y (0 or x_hi * 10 at the ends; never NaN). */
+double wdr_nominal_invert(const wdr_nominal *n, double y);
+/* |dy / d ln x| at x: codes per unit of ln x, the scale that turns code errors into contrast. */
+double wdr_nominal_log_slope(const wdr_nominal *n, double x);
+
+typedef struct wdr_cal_config {
+    int model;          /* enum wdr_cal_model_id */
+    int form;           /* enum wdr_cal_form of the table */
+    int n_coeffs;       /* POLY: coefficients (degree + 1); LSQ fits this directly */
+    int use_dark_ref;   /* SIMPLE3/COMPLEX4: level 0 is the dark-end reference for d (eq. 20) */
+    double raw_max;     /* largest raw code */
+    float out_scale;    /* output code per raw code unit */
+    uint16_t out_max;
+    double stuck_frac, dead_frac, hot_frac; /* bad-pixel thresholds (see cal_fit.c) */
+    double max_residual;/* LSQ: largest weighted rms residual (ln x units) before UNFIT */
+} wdr_cal_config;
+
+void wdr_cal_config_defaults(wdr_cal_config *c, int model);
+
+/* Per-pixel result of a calibration. */
+typedef struct wdr_cal_result {
+    int width, height, model;
+    wdr_cal_config cfg;
+    wdr_nominal nominal;
+    double x_scale;
+    int n_params;
+    double *params;   /* n_params per pixel: model parameters or LSQ coefficients */
+    uint8_t *flags;   /* WDR_PIX_* per pixel */
+    uint8_t *status;  /* enum wdr_fit_status per pixel (UNFIT reason) */
+    long n_flag[8];   /* pixels per flag bit */
+    long n_status[WDR_FIT_COUNT];
+    long n_bad;
+    int saturated_levels; /* levels where the array median sits at a rail */
+} wdr_cal_result;
+
+/* Detect dead, stuck, hot and saturated pixels into flags (width*height, zeroed first). */
+void wdr_cal_detect_bad(const wdr_cal_levels *lv, const wdr_cal_config *cfg, uint8_t *flags, int *saturated_levels);
+
+/* Fit every pixel. levels: SIMPLE3 needs 3 (+1 dark-end reference first with use_dark_ref),
+ * COMPLEX4 4 (+1), LSQ at least n_coeffs + 1.
+ * @retval WDR_OK
+ * @retval WDR_E_INVAL   wrong level count, levels not rising, bad config (err says which)
+ * @retval WDR_E_NUMERIC the nominal curve itself cannot be fitted (err names the reason)
+ * @retval WDR_E_NOMEM */
+int wdr_cal_fit_array(const wdr_cal_levels *lv, const wdr_cal_config *cfg, wdr_cal_result *res, char *err,
+                      int errlen);
+void wdr_cal_result_free(wdr_cal_result *res);
+
+/* Recovered photocurrent (A) of pixel i for raw code y, by the model in double: its inverse
+ * for SIMPLE3/COMPLEX4 (eq. 26), the nominal inverse of the fitted map for LSQ. Never NaN;
+ * *status gets a failure reason (0 when fine). */
+double wdr_cal_recover(const wdr_cal_result *res, long i, double y, int *status);
+
+/* The corrected value (raw-code units, before out_scale) of pixel i: nominal(recovered x). */
+double wdr_cal_map(const wdr_cal_result *res, long i, double y);
+
+/* Build the firmware table (form from cfg) into a malloc'd buffer (4-byte aligned).
+ * Pixels whose coefficients would not be finite or whose MOEBIUS denominator could vanish get
+ * identity coefficients and WDR_PIX_UNFIT. @retval WDR_OK, WDR_E_NOMEM, WDR_E_INVAL */
+int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int operator_id, uint8_t **out,
+                        size_t *out_len, char *err, int errlen);
+
+/* Monotone interpolation helpers (exposed for tests). */
+int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n);
+double wdr_pchip_eval(const wdr_pchip *p, double lx);
+double wdr_pchip_slope(const wdr_pchip *p, double lx);
+
+#endif

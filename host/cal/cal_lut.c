@@ -1,0 +1,73 @@
+/* A calibration margin for a DAC ramp. A ramp built for [i_min, i_max] ends where the nominal
+ * pixel's dimmest current crosses. A pixel whose reset level or M2 threshold sits a few mV above
+ * nominal then never crosses at low light: it holds the ramp's last code and tells nothing about
+ * its current (with the default 0.35 um mismatch about half the pixels below 5e-14 A under
+ * Reinhard). Continuing the ramp at its final slope for a few sigma of that mismatch lets every
+ * pixel, and the dark frame, cross. */
+#include "cal_engine.h"
+#include "wdr_err.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Final slope in codes per tick, from the last span of the ramp that rose by >= 8 codes. */
+static double final_slope(const wdr_lut_view *lut, uint32_t *t_last, uint16_t *c_last)
+{
+    uint32_t n = lut->h.entry_count, t0 = 0;
+    uint16_t c0 = 0;
+    wdr_lut_entry(lut, n - 1, t_last, c_last);
+    for (uint32_t i = n - 1; i-- > 0;) {
+        wdr_lut_entry(lut, i, &t0, &c0);
+        if (*c_last - c0 >= 8 || i == 0)
+            break;
+    }
+    return *t_last > t0 && *c_last > c0 ? (double)(*c_last - c0) / (double)(*t_last - t0) : 0;
+}
+
+int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double max_time_frac, uint8_t **out,
+                       size_t *out_len, double *added_s, char *err, int errlen)
+{
+    wdr_lut_view lut;
+    int rc = wdr_lut_parse(in, in_len, &lut);
+    if (rc) {
+        snprintf(err, (size_t)errlen, "LUT does not parse: %s", wdr_strerror(rc));
+        return rc;
+    }
+    uint32_t t_last, n = lut.h.entry_count, max_code = (1u << lut.h.dac_bits) - 1u;
+    uint16_t c_last;
+    double slope = final_slope(&lut, &t_last, &c_last), lsb = (lut.h.dac_hi_v - lut.h.dac_lo_v) / max_code;
+    uint32_t extra = (uint32_t)ceil(margin_v / lsb);
+    if (c_last + extra > max_code)
+        extra = max_code - c_last;
+    double step = slope > 0 ? 1 / slope : 0; /* ticks per code */
+    if (!(margin_v >= 0) || !(step > 0) || extra * step > max_time_frac * t_last || n + extra > WDR_LUT_MAX_ENTRIES) {
+        snprintf(err, (size_t)errlen, "cannot extend the ramp by %.1f mV: final slope %.3g codes/tick, %u entries, "
+                 "limit %.0f %% of the integration time", margin_v * 1e3, slope, n, max_time_frac * 100);
+        return WDR_E_INVAL;
+    }
+    uint32_t *t = malloc(sizeof(uint32_t) * (n + extra));
+    uint16_t *c = malloc(sizeof(uint16_t) * (n + extra));
+    *out_len = wdr_lut_size(n + extra);
+    *out = malloc(*out_len);
+    if (!t || !c || !*out) {
+        free(t), free(c), free(*out);
+        *out = NULL;
+        return WDR_E_NOMEM;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        wdr_lut_entry(&lut, i, &t[i], &c[i]);
+    for (uint32_t k = 1; k <= extra; k++) {
+        t[n + k - 1] = t_last + (uint32_t)ceil(k * step);
+        c[n + k - 1] = (uint16_t)(c_last + k);
+    }
+    wdr_lut_header h = lut.h;
+    h.entry_count = n + extra;
+    uint32_t t_end = t[n + extra - 1] + (uint32_t)ceil(step) + 1;
+    h.t_integration_ticks = t_end > lut.h.t_integration_ticks ? t_end : lut.h.t_integration_ticks;
+    wdr_lut_encode(&h, t, c, *out);
+    *added_s = (double)(h.t_integration_ticks - lut.h.t_integration_ticks) * lut.h.tick_ps * 1e-12;
+    free(t);
+    free(c);
+    return WDR_OK;
+}

@@ -1,0 +1,162 @@
+/* From fitted pixels to the firmware table: per-pixel coefficients of nominal(model^-1(y)). */
+#include "cal_fit.h"
+#include "wdr_err.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAP_SAMPLES 32
+/* Same limit as the firmware parser: the kernel's divisor r*y + 1 stays at least this positive. */
+#define MIN_DENOM 1e-3
+
+static int finite_as_float(const double *c, int n)
+{
+    for (int k = 0; k < n; k++)
+        if (!isfinite(c[k]) || fabs(c[k]) > 1e30)
+            return 0;
+    return 1;
+}
+
+/* The composition of two Moebius maps is a Moebius map, so three samples determine it exactly:
+ * v (r y + 1) = p y + q is linear in (p, q, r). */
+static int moebius_coeffs(const wdr_cal_result *res, long i, double *c)
+{
+    double y[3], v[3], a[9], b[3], rcond;
+    double xs[3] = {res->nominal.x_lo, sqrt(res->nominal.x_lo * res->nominal.x_hi), res->nominal.x_hi};
+    const double *p = res->params + i * res->n_params;
+    wdr_simple3 m = {p[0], p[1], p[2], p[3], res->x_scale};
+    for (int k = 0; k < 3; k++) {
+        y[k] = wdr_simple3_eval(&m, xs[k] / res->x_scale);
+        v[k] = wdr_cal_map(res, i, y[k]);
+        a[k * 3 + 0] = y[k];
+        a[k * 3 + 1] = 1;
+        a[k * 3 + 2] = -v[k] * y[k];
+        b[k] = v[k];
+    }
+    if (wdr_lu_solve(a, b, 3, 1e-15, c, &rcond))
+        return 0;
+    return finite_as_float(c, 3) && 1 + c[2] * res->cfg.raw_max >= MIN_DENOM;
+}
+
+/* Pixel response at current x from its fitted model (the table's input side). */
+static double pixel_response(const wdr_cal_result *res, long i, double x)
+{
+    const double *p = res->params + i * res->n_params;
+    if (res->model == WDR_MODEL_SIMPLE3) {
+        wdr_simple3 m = {p[0], p[1], p[2], p[3], res->x_scale};
+        return wdr_simple3_eval(&m, x / res->x_scale);
+    }
+    wdr_complex4 m = {p[0], p[1], p[2], p[3], p[4], res->x_scale, 0};
+    return wdr_complex4_eval(&m, x / res->x_scale);
+}
+
+/* Least-squares polynomial in u = 2y/raw_max - 1 through samples of the exact map over the
+ * calibrated range, each weighted by 1/|dy/dlnx| so the residual is a contrast error. */
+static int poly_coeffs(const wdr_cal_result *res, long i, int nc, double *c)
+{
+    double a[MAP_SAMPLES * WDR_CAL_MAX_COEFFS], t[MAP_SAMPLES], w[MAP_SAMPLES], rcond;
+    double lx0 = log(res->nominal.x_lo), lx1 = log(res->nominal.x_hi);
+    for (int k = 0; k < MAP_SAMPLES; k++) {
+        double x = exp(lx0 + (lx1 - lx0) * k / (MAP_SAMPLES - 1));
+        double y = pixel_response(res, i, x), u = 2 * y / res->cfg.raw_max - 1, pw = 1;
+        for (int j = 0; j < nc; j++, pw *= u)
+            a[k * nc + j] = pw;
+        t[k] = wdr_nominal_eval(&res->nominal, x);
+        w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, x), 1e-9);
+    }
+    if (wdr_lsq_solve(a, t, w, MAP_SAMPLES, nc, c, &rcond))
+        return 0;
+    return finite_as_float(c, nc);
+}
+
+static void identity_coeffs(const wdr_cal_result *res, int form, int nc, double *c)
+{
+    memset(c, 0, sizeof(double) * (size_t)nc);
+    if (form == WDR_FORM_MOEBIUS) {
+        c[0] = 1;
+        return;
+    }
+    c[0] = c[1] = res->cfg.raw_max / 2; /* v = y with u = 2y/raw_max - 1 */
+}
+
+static int pixel_coeffs(const wdr_cal_result *res, long i, int form, int nc, double *c)
+{
+    if (res->flags[i])
+        return 0;
+    if (form == WDR_FORM_MOEBIUS)
+        return res->model == WDR_MODEL_SIMPLE3 && moebius_coeffs(res, i, c);
+    if (res->model == WDR_MODEL_LSQ) {
+        if (nc != res->n_params)
+            return 0;
+        memcpy(c, res->params + i * res->n_params, sizeof(double) * (size_t)nc);
+        return finite_as_float(c, nc);
+    }
+    return poly_coeffs(res, i, nc, c);
+}
+
+static int check_form(const wdr_cal_result *res, char *err, int errlen)
+{
+    const wdr_cal_config *cfg = &res->cfg;
+    int nc = cfg->form == WDR_FORM_MOEBIUS ? 3 : cfg->n_coeffs;
+    if (!wdr_cal_form_coeffs_ok((uint16_t)cfg->form, (uint16_t)nc) || cfg->form == WDR_FORM_IDENTITY) {
+        snprintf(err, (size_t)errlen, "table form %d with %d coefficients is not supported", cfg->form, nc);
+        return WDR_E_INVAL;
+    }
+    if (cfg->form == WDR_FORM_MOEBIUS && res->model != WDR_MODEL_SIMPLE3) {
+        snprintf(err, (size_t)errlen, "the Moebius table form is exact only for the 3-parameter model");
+        return WDR_E_INVAL;
+    }
+    if (res->model == WDR_MODEL_LSQ && nc != res->n_params) {
+        snprintf(err, (size_t)errlen, "LSQ fitted %d coefficients, table asks for %d", res->n_params, nc);
+        return WDR_E_INVAL;
+    }
+    if (!(cfg->out_scale > 0) || cfg->raw_max < 1 || res->width > (int)WDR_CAL_MAX_WIDTH) {
+        snprintf(err, (size_t)errlen, "bad output scale %g, raw maximum %g or width %d", (double)cfg->out_scale,
+                 cfg->raw_max, res->width);
+        return WDR_E_INVAL;
+    }
+    return WDR_OK;
+}
+
+int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int operator_id, uint8_t **out,
+                        size_t *out_len, char *err, int errlen)
+{
+    int rc = check_form(res, err, errlen);
+    if (rc)
+        return rc;
+    const wdr_cal_config *cfg = &res->cfg;
+    int form = cfg->form, nc = form == WDR_FORM_MOEBIUS ? 3 : cfg->n_coeffs;
+    long np = (long)res->width * res->height;
+    size_t len = wdr_cal_size((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc);
+    float *coeffs = malloc(sizeof(float) * (size_t)nc * (size_t)np);
+    uint8_t *flags = malloc((size_t)np), *buf = aligned_alloc(8, (len + 7) & ~(size_t)7);
+    if (!coeffs || !flags || !buf) {
+        free(coeffs), free(flags), free(buf);
+        snprintf(err, (size_t)errlen, "out of memory for a %zu-byte table", len);
+        return WDR_E_NOMEM;
+    }
+    uint32_t bad = 0;
+    for (long i = 0; i < np; i++) {
+        double c[WDR_CAL_MAX_COEFFS];
+        flags[i] = res->flags[i];
+        if (!pixel_coeffs(res, i, form, nc, c)) {
+            identity_coeffs(res, form, nc, c);
+            flags[i] |= flags[i] ? 0 : WDR_PIX_UNFIT;
+        }
+        bad += flags[i] != 0;
+        for (int k = 0; k < nc; k++)
+            coeffs[(long)k * np + i] = (float)c[k];
+    }
+    wdr_cal_header h = {.sensor_id = sensor_id, .width = (uint16_t)res->width, .height = (uint16_t)res->height,
+                        .form = (uint16_t)form, .n_coeffs = (uint16_t)nc, .model = (uint16_t)res->model,
+                        .operator_id = (uint16_t)operator_id, .in_scale = (float)(2 / cfg->raw_max),
+                        .in_offset = -1.0f, .out_scale = cfg->out_scale, .out_max = cfg->out_max,
+                        .raw_max = (uint16_t)cfg->raw_max, .bad_pixels = bad};
+    wdr_cal_encode(&h, coeffs, flags, buf);
+    free(coeffs);
+    free(flags);
+    *out = buf;
+    *out_len = len;
+    return WDR_OK;
+}
