@@ -13,6 +13,19 @@ static const wdrctl_command commands[] = {
      "            [--repair] [--timing uniform|stamped] [--entries N] [--dac-bits N] [--curve FILE.csv]\n"
      "            [--l-avg X] [--l-max X] [--l-min X]"},
     {"lut", "plots", cmd_lut_plots, "[--board FILE] [--outdir DIR]  V_ref(t) and response of every operator"},
+    /* Board commands take [--device sim:/path.sock|usb[:BUS-ADDR]] (default $WDR_DEVICE),
+     * [--timeout MS] [--retries N]. */
+    {NULL, "devices", cmd_devices, "list wdrcam USB boards, and the simulated one given by --device"},
+    {NULL, "info", cmd_info, "board identity and protocol version"},
+    {NULL, "status", cmd_status, "state, active tables, counters"},
+    {"lut", "upload", cmd_lut_upload, "LUT.bin [--no-verify]  store a LUT in flash and play it"},
+    {"lut", "select", cmd_lut_select, "A|B|newest  play the LUT of a slot"},
+    {"cal", "upload", cmd_cal_upload, "CAL.bin [--no-verify]  store a calibration table in flash and apply it"},
+    {NULL, "integration", cmd_integration, "NS  integration time (0: the LUT's own)"},
+    {NULL, "capture", cmd_capture,
+     "[-n N] -o FILE.png|FILE.pfm [--bits 8|16] [--raw] [--negate] [--average]  N frames (numbered files)"},
+    {NULL, "stream", cmd_stream, "[-n N] [--seconds S]  frames back to back, one line each, until Ctrl-C"},
+    {"sim", "illuminant", cmd_sim_illuminant, "AMPS  light every pixel of a simulated board uniformly"},
 };
 #define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
 

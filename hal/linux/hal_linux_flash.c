@@ -1,0 +1,79 @@
+/* Real board on embedded Linux, flash: the table partition as an MTD character device
+ * (MEMGETINFO, MEMERASE, pread/pwrite). The HAL contract is stricter than NOR hardware,
+ * which would silently AND new bits into old ones: programming checks that the range is erased. */
+#include "hal_linux_internal.h"
+#include <fcntl.h>
+#include <mtd/mtd-user.h>
+#include <string.h>
+#include <sys/ioctl.h>
+#include <unistd.h>
+
+#define MIN_PROG_SIZE 16u /* NOR reports 1; the firmware pads its records to this anyway */
+
+static struct {
+    int fd;
+    hal_flash_geometry g;
+} M = {.fd = -1};
+
+int lx_flash_init(void)
+{
+    struct mtd_info_user info;
+    M.fd = open(HAL_LINUX_MTD, O_RDWR | O_CLOEXEC);
+    if (M.fd < 0 || ioctl(M.fd, MEMGETINFO, &info) < 0 || info.erasesize == 0)
+        return WDR_E_IO;
+    M.g.block_size = info.erasesize;
+    M.g.block_count = info.size / info.erasesize;
+    M.g.prog_size = info.writesize < MIN_PROG_SIZE ? MIN_PROG_SIZE : info.writesize;
+    return M.g.prog_size <= 256 ? WDR_OK : WDR_E_UNSUPPORTED;
+}
+
+int hal_flash_geometry_get(hal_flash_geometry *g)
+{
+    if (M.fd < 0)
+        return WDR_E_IO;
+    *g = M.g;
+    return WDR_OK;
+}
+
+static int in_range(uint32_t addr, uint32_t len)
+{
+    return (uint64_t)addr + len <= (uint64_t)M.g.block_size * M.g.block_count;
+}
+
+int hal_flash_read(uint32_t addr, void *buf, uint32_t len)
+{
+    if (!buf || !in_range(addr, len))
+        return WDR_E_INVAL;
+    return pread(M.fd, buf, len, addr) == (ssize_t)len ? WDR_OK : WDR_E_IO;
+}
+
+int hal_flash_erase(uint32_t block)
+{
+    if (block >= M.g.block_count)
+        return WDR_E_INVAL;
+    struct erase_info_user e = {.start = block * M.g.block_size, .length = M.g.block_size};
+    return ioctl(M.fd, MEMERASE, &e) == 0 ? WDR_OK : WDR_E_IO;
+}
+
+static int is_erased(uint32_t addr, uint32_t len)
+{
+    uint8_t buf[256];
+    for (uint32_t done = 0; done < len; done += sizeof buf) {
+        uint32_t n = len - done < sizeof buf ? len - done : (uint32_t)sizeof buf;
+        if (pread(M.fd, buf, n, addr + done) != (ssize_t)n)
+            return 0;
+        for (uint32_t i = 0; i < n; i++)
+            if (buf[i] != 0xFF)
+                return 0;
+    }
+    return 1;
+}
+
+int hal_flash_prog(uint32_t addr, const void *buf, uint32_t len)
+{
+    if (!buf || addr % M.g.prog_size || len % M.g.prog_size || !in_range(addr, len))
+        return WDR_E_INVAL;
+    if (!is_erased(addr, len))
+        return WDR_E_IO;
+    return pwrite(M.fd, buf, len, addr) == (ssize_t)len ? WDR_OK : WDR_E_IO;
+}

@@ -1,0 +1,13 @@
+/* Shared state of the Linux board's parts (core, USB, flash); not for the firmware. */
+#ifndef HAL_LINUX_INTERNAL_H
+#define HAL_LINUX_INTERNAL_H
+#include "hal.h"
+#include "hal_linux_config.h"
+
+/* Post an event from any thread; wakes hal_wait_for_event. */
+void lx_post(uint8_t type, uint32_t arg);
+
+int lx_usb_init(void);
+int lx_flash_init(void);
+
+#endif

@@ -1,0 +1,421 @@
+/* Host protocol client: requests with retries, uploads, captures (see transport_client.h). */
+#include "transport_client.h"
+#include "crc32.h"
+#include "wdr_err.h"
+#include "wdr_lut.h"
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+static const char *opcode_name(int op)
+{
+    switch (op) {
+    case WDR_CMD_INFO: return "INFO";
+    case WDR_CMD_STATUS: return "STATUS";
+    case WDR_CMD_LUT_BEGIN: return "LUT_BEGIN";
+    case WDR_CMD_LUT_CHUNK: return "LUT_CHUNK";
+    case WDR_CMD_LUT_COMMIT: return "LUT_COMMIT";
+    case WDR_CMD_LUT_SELECT: return "LUT_SELECT";
+    case WDR_CMD_CAL_BEGIN: return "CAL_BEGIN";
+    case WDR_CMD_CAL_CHUNK: return "CAL_CHUNK";
+    case WDR_CMD_CAL_COMMIT: return "CAL_COMMIT";
+    case WDR_CMD_SET_INTEGRATION: return "SET_INTEGRATION";
+    case WDR_CMD_CAPTURE: return "CAPTURE";
+    case WDR_CMD_STREAM: return "STREAM";
+    case WDR_CMD_ABORT: return "ABORT";
+    case WDR_CMD_SIM_SET_ILLUMINANT: return "SIM_SET_ILLUMINANT";
+    default: return "request";
+    }
+}
+
+const char *wdr_client_status_text(int status) { return wdr_status_name(status); }
+
+/* ---- Receiving packets ------------------------------------------------------------------- */
+
+/* Next decoder result before the deadline: enum wdr_feed_result (not MORE), or an error. */
+static int next_packet(wdr_client *c, int64_t deadline, wdr_packet *p)
+{
+    for (;;) {
+        while (c->rx_pos < c->rx_len) {
+            size_t used = 0;
+            int r = wdr_proto_feed(&c->dec, c->rx + c->rx_pos, c->rx_len - c->rx_pos, &used, p);
+            c->rx_pos += used;
+            if (r != WDR_FEED_MORE)
+                return r;
+        }
+        int64_t left = deadline - wdr_transport_now_ms();
+        if (left <= 0)
+            return WDR_E_TIMEOUT;
+        int n = wdr_transport_recv(c->t, c->rx, sizeof c->rx, (int)left);
+        if (n < 0)
+            return n;
+        c->rx_pos = 0;
+        c->rx_len = (size_t)n;
+    }
+}
+
+static int fail(wdr_client *c, int code, const char *what)
+{
+    snprintf(c->err, sizeof c->err, "%s: %s", wdr_transport_name(c->t), what);
+    return code;
+}
+
+static int transport_fail(wdr_client *c, int code, uint8_t opcode)
+{
+    char what[160];
+    if (code == WDR_E_IO)
+        snprintf(what, sizeof what, "board disconnected during %s", opcode_name(opcode));
+    else if (code == WDR_E_TIMEOUT)
+        snprintf(what, sizeof what, "no answer to %s after %d attempt(s) of %d ms", opcode_name(opcode),
+                 c->retries + 1, c->timeout_ms);
+    else
+        snprintf(what, sizeof what, "%s failed: %s", opcode_name(opcode), wdr_transport_strerror(code));
+    return fail(c, code, what);
+}
+
+/* ---- Requests ----------------------------------------------------------------------------- */
+
+enum { GOT_RESPONSE = 1, RETRY = 2 };
+
+/* Handle one decoder result while waiting for the answer to c->seq. */
+static int on_result(wdr_client *c, int r, const wdr_packet *p, uint8_t opcode)
+{
+    int ours = (p->h.flags & WDR_FLAG_RESPONSE) && p->h.seq == c->seq;
+    if (r != WDR_FEED_PACKET)
+        return ours ? RETRY : WDR_OK; /* a garbled answer: ask again, the board resends it */
+    if (p->h.flags & WDR_FLAG_EVENT)
+        return c->on_event ? c->on_event(c->event_ctx, p) : WDR_OK;
+    if (!ours)
+        return WDR_OK; /* a late answer to an earlier attempt */
+    if (p->h.opcode != opcode) {
+        char what[128];
+        snprintf(what, sizeof what, "answer to %s carries opcode 0x%02x", opcode_name(opcode), p->h.opcode);
+        return fail(c, WDR_E_PROTOCOL, what);
+    }
+    c->status = p->h.status;
+    c->reply_len = p->h.length;
+    memcpy(c->reply, p->payload, p->h.length);
+    return GOT_RESPONSE;
+}
+
+/* Send the encoded request in c->tx and wait for its answer; GOT_RESPONSE, RETRY or an error. */
+static int one_attempt(wdr_client *c, size_t frame_len, uint8_t opcode)
+{
+    int rc = wdr_transport_send(c->t, c->tx, frame_len, c->timeout_ms);
+    if (rc == WDR_E_TIMEOUT)
+        return RETRY;
+    if (rc != WDR_OK)
+        return transport_fail(c, rc, opcode);
+    int64_t deadline = wdr_transport_now_ms() + c->timeout_ms;
+    for (;;) {
+        wdr_packet p;
+        int r = next_packet(c, deadline, &p);
+        if (r == WDR_E_TIMEOUT)
+            return RETRY;
+        if (r < 0)
+            return transport_fail(c, r, opcode);
+        rc = on_result(c, r, &p, opcode);
+        if (rc != WDR_OK)
+            return rc;
+    }
+}
+
+static size_t encode_request(wdr_client *c, uint8_t opcode, const void *payload, uint32_t len)
+{
+    wdr_proto_header h = {.opcode = opcode, .seq = c->seq};
+    return wdr_proto_encode(c->tx, sizeof c->tx, &h, payload, len);
+}
+
+/* A BAD_CRC answer to anything but a commit means our request was damaged on the way. */
+static int request_was_damaged(const wdr_client *c, uint8_t opcode)
+{
+    return c->status == WDR_ST_BAD_CRC && opcode != WDR_CMD_LUT_COMMIT && opcode != WDR_CMD_CAL_COMMIT;
+}
+
+int wdr_client_request(wdr_client *c, uint8_t opcode, const void *payload, uint32_t len)
+{
+    if (len > WDR_PROTO_MAX_PAYLOAD)
+        return fail(c, WDR_E_TOO_LARGE, "request payload too large");
+    c->seq++;
+    size_t frame_len = encode_request(c, opcode, payload, len);
+    for (int attempt = 0; attempt <= c->retries; attempt++) {
+        if (attempt)
+            c->retries_used++;
+        int rc = one_attempt(c, frame_len, opcode);
+        if (rc == GOT_RESPONSE && request_was_damaged(c, opcode) && attempt < c->retries) {
+            c->seq++; /* a fresh number, so the board executes it rather than replaying BAD_CRC */
+            frame_len = encode_request(c, opcode, payload, len);
+            continue;
+        }
+        if (rc == GOT_RESPONSE && c->status == WDR_ST_OK)
+            return WDR_OK;
+        if (rc == GOT_RESPONSE) {
+            char what[128];
+            snprintf(what, sizeof what, "board refused %s: %s", opcode_name(opcode), wdr_status_name(c->status));
+            return fail(c, WDR_E_STATUS, what);
+        }
+        if (rc != RETRY)
+            return rc; /* c->err says why */
+    }
+    return transport_fail(c, WDR_E_TIMEOUT, opcode);
+}
+
+/* ---- Connect, status, illuminant ------------------------------------------------------------ */
+
+int wdr_client_connect(wdr_client *c, wdr_transport *t)
+{
+    wdr_event_fn keep_fn = c->on_event;
+    void *keep_ctx = c->event_ctx;
+    int timeout = c->timeout_ms > 0 ? c->timeout_ms : WDR_CLIENT_TIMEOUT_MS;
+    int retries = c->retries > 0 ? c->retries : WDR_CLIENT_RETRIES;
+    memset(c, 0, sizeof *c);
+    c->t = t;
+    c->timeout_ms = timeout;
+    c->retries = retries;
+    c->on_event = keep_fn;
+    c->event_ctx = keep_ctx;
+    /* A random first number: a board that remembers the last request of an earlier host
+     * must not take our first request for a retry of it. */
+    c->seq = (uint16_t)(getpid() * 2654435761u ^ (uint32_t)wdr_transport_now_ms());
+    wdr_proto_decoder_init(&c->dec);
+    uint8_t ver[4];
+    wdr_put_u16(ver, WDR_PROTO_VERSION_MAJOR);
+    wdr_put_u16(ver + 2, WDR_PROTO_VERSION_MINOR);
+    int rc = wdr_client_request(c, WDR_CMD_INFO, ver, sizeof ver);
+    if (rc != WDR_OK && !(rc == WDR_E_STATUS && c->status == WDR_ST_BAD_VERSION))
+        return rc;
+    if (wdr_info_unpack(c->reply, c->reply_len, &c->info) != WDR_OK)
+        return fail(c, WDR_E_PROTOCOL, "INFO answer too short");
+    if (rc != WDR_OK || c->info.proto_major != WDR_PROTO_VERSION_MAJOR) {
+        char what[160];
+        snprintf(what, sizeof what, "board speaks protocol %u.%u, this wdrctl speaks %d.%d", c->info.proto_major,
+                 c->info.proto_minor, WDR_PROTO_VERSION_MAJOR, WDR_PROTO_VERSION_MINOR);
+        return fail(c, WDR_E_VERSION, what);
+    }
+    return WDR_OK;
+}
+
+int wdr_client_status(wdr_client *c, wdr_status_report *out)
+{
+    int rc = wdr_client_request(c, WDR_CMD_STATUS, NULL, 0);
+    if (rc == WDR_OK && wdr_status_unpack(c->reply, c->reply_len, out) != WDR_OK)
+        return fail(c, WDR_E_PROTOCOL, "STATUS answer too short");
+    return rc;
+}
+
+int wdr_client_set_illuminant(wdr_client *c, double amps)
+{
+    uint8_t p[8];
+    uint64_t bits;
+    memcpy(&bits, &amps, sizeof bits);
+    wdr_put_u32(p, (uint32_t)bits);
+    wdr_put_u32(p + 4, (uint32_t)(bits >> 32));
+    return wdr_client_request(c, WDR_CMD_SIM_SET_ILLUMINANT, p, sizeof p);
+}
+
+/* ---- Uploads ------------------------------------------------------------------------------ */
+
+static void abort_quietly(wdr_client *c)
+{
+    char keep[sizeof c->err];
+    int keep_status = c->status;
+    memcpy(keep, c->err, sizeof keep);
+    int retries = c->retries;
+    c->retries = 0;
+    wdr_client_request(c, WDR_CMD_ABORT, NULL, 0);
+    c->retries = retries;
+    c->status = keep_status;
+    memcpy(c->err, keep, sizeof keep);
+}
+
+static int upload_chunks(wdr_client *c, uint8_t op_chunk, const uint8_t *table, size_t len, wdr_progress_fn progress,
+                         void *progress_ctx)
+{
+    uint8_t p[WDR_CHUNK_OFFSET_SIZE + WDR_PROTO_CHUNK_DATA_MAX];
+    for (size_t off = 0; off < len; off += WDR_PROTO_CHUNK_DATA_MAX) {
+        size_t n = len - off < WDR_PROTO_CHUNK_DATA_MAX ? len - off : WDR_PROTO_CHUNK_DATA_MAX;
+        wdr_put_u32(p, (uint32_t)off);
+        memcpy(p + WDR_CHUNK_OFFSET_SIZE, table + off, n);
+        int rc = wdr_client_request(c, op_chunk, p, (uint32_t)(WDR_CHUNK_OFFSET_SIZE + n));
+        if (rc != WDR_OK) {
+            size_t used = strlen(c->err);
+            snprintf(c->err + used, sizeof c->err - used, " (chunk at byte %zu of %zu)", off, len);
+            return rc;
+        }
+        if (progress)
+            progress(progress_ctx, off + n, len);
+    }
+    return WDR_OK;
+}
+
+static int check_commit(wdr_client *c, uint32_t crc, wdr_commit_reply *out)
+{
+    wdr_commit_reply r;
+    if (wdr_commit_unpack(c->reply, c->reply_len, &r) != WDR_OK)
+        return fail(c, WDR_E_PROTOCOL, "COMMIT answer too short");
+    if (r.crc != crc) {
+        char what[128];
+        snprintf(what, sizeof what, "board read back CRC %08x, the table sent has %08x", r.crc, crc);
+        return fail(c, WDR_E_CORRUPT, what);
+    }
+    if (out)
+        *out = r;
+    return WDR_OK;
+}
+
+int wdr_client_upload(wdr_client *c, int kind, const uint8_t *table, size_t len, wdr_progress_fn progress,
+                      void *progress_ctx, wdr_commit_reply *out)
+{
+    uint8_t op = kind == WDR_KIND_CAL ? WDR_CMD_CAL_BEGIN : WDR_CMD_LUT_BEGIN;
+    if (len == 0 || len > 0xffffffffu)
+        return fail(c, WDR_E_INVAL, "table is empty or larger than 4 GiB");
+    uint32_t crc = wdr_crc32(0, table, len);
+    uint8_t begin[WDR_BEGIN_SIZE];
+    wdr_put_u32(begin, (uint32_t)len);
+    wdr_put_u32(begin + 4, crc);
+    int rc = wdr_client_request(c, op, begin, sizeof begin);
+    if (rc == WDR_OK)
+        rc = upload_chunks(c, (uint8_t)(op + 1), table, len, progress, progress_ctx);
+    if (rc == WDR_OK)
+        rc = wdr_client_request(c, (uint8_t)(op + 2), NULL, 0);
+    if (rc == WDR_OK)
+        return check_commit(c, crc, out);
+    if (rc != WDR_E_IO)
+        abort_quietly(c);
+    return rc;
+}
+
+/* ---- Capture and stream ------------------------------------------------------------------------ */
+
+typedef struct capture_ctx {
+    wdr_client *c;
+    wdr_frame frame;
+    uint32_t frames_done, frames_wanted;
+    wdr_frame_fn on_frame;
+    void *ctx;
+    int stopping;          /* stream: frames after the stop are dropped */
+} capture_ctx;
+
+static int take_row(capture_ctx *k, const wdr_packet *p)
+{
+    const uint8_t *q = p->payload;
+    if (p->h.length < WDR_PROTO_ROW_HEADER)
+        return fail(k->c, WDR_E_PROTOCOL, "ROW event too short");
+    uint16_t row = wdr_get_u16(q + 4), width = wdr_get_u16(q + 6);
+    if (width != k->frame.width || row >= k->frame.height || p->h.length != WDR_PROTO_ROW_HEADER + 2u * width) {
+        char what[128];
+        snprintf(what, sizeof what, "ROW event for row %u, width %u does not fit the %ux%u sensor", row, width,
+                 k->frame.width, k->frame.height);
+        return fail(k->c, WDR_E_PROTOCOL, what);
+    }
+    uint16_t *dst = k->frame.codes + (size_t)row * width;
+    for (uint16_t i = 0; i < width; i++)
+        dst[i] = wdr_get_u16(q + WDR_PROTO_ROW_HEADER + 2u * i);
+    k->frame.rows_seen++;
+    return WDR_OK;
+}
+
+static int take_frame_end(capture_ctx *k, const wdr_packet *p)
+{
+    if (wdr_frame_end_unpack(p->payload, p->h.length, &k->frame.end) != WDR_OK)
+        return fail(k->c, WDR_E_PROTOCOL, "FRAME_END event too short");
+    uint32_t rows = k->frame.rows_seen;
+    k->frame.rows_seen = 0;
+    if (k->stopping)
+        return WDR_OK;
+    if (rows != k->frame.height || k->frame.end.rows != k->frame.height) {
+        char what[128];
+        snprintf(what, sizeof what, "frame %u arrived with %u of %u rows", k->frame.end.frame, rows, k->frame.height);
+        return fail(k->c, WDR_E_PROTOCOL, what);
+    }
+    k->frames_done++;
+    return k->on_frame ? k->on_frame(k->ctx, &k->frame) : WDR_OK;
+}
+
+static int capture_event(void *ctx, const wdr_packet *p)
+{
+    capture_ctx *k = ctx;
+    if (p->h.seq != k->c->seq)
+        return WDR_OK; /* left over from an earlier capture */
+    if (p->h.opcode == WDR_CMD_ROW)
+        return take_row(k, p);
+    if (p->h.opcode == WDR_CMD_FRAME_END)
+        return take_frame_end(k, p);
+    return WDR_OK;
+}
+
+/* Wait for events until cond holds; each packet may take timeout_ms. */
+static int pump_events(capture_ctx *k, int timeout_ms, volatile int *stop)
+{
+    wdr_client *c = k->c;
+    while (k->frames_done < k->frames_wanted && !(stop && *stop)) {
+        wdr_packet p;
+        int r = next_packet(c, wdr_transport_now_ms() + timeout_ms, &p);
+        if (r == WDR_E_TIMEOUT) {
+            char what[128];
+            snprintf(what, sizeof what, "frame data stopped arriving for %d ms (%u frames received)", timeout_ms,
+                     k->frames_done);
+            return fail(c, r, what);
+        }
+        if (r < 0)
+            return transport_fail(c, r, WDR_CMD_CAPTURE);
+        if (r != WDR_FEED_PACKET || !(p.h.flags & WDR_FLAG_EVENT))
+            continue; /* garbled events cannot be asked for again; the frame check catches gaps */
+        int rc = capture_event(k, &p);
+        if (rc != WDR_OK)
+            return rc;
+    }
+    return WDR_OK;
+}
+
+/* Time a frame may take on the board: its integration plus the slowest readout we expect. */
+static int frame_timeout_ms(wdr_client *c)
+{
+    wdr_status_report st;
+    int64_t ms = c->timeout_ms;
+    if (wdr_client_status(c, &st) == WDR_OK)
+        ms += st.integration_ns / 1000000 + (int64_t)c->info.height * c->info.row_time_ns / 1000000;
+    return ms > 0x7fffffff ? 0x7fffffff : (int)ms;
+}
+
+static int run_capture(wdr_client *c, capture_ctx *k, uint8_t opcode, const uint8_t *arg, uint32_t arg_len,
+                       volatile int *stop)
+{
+    int per_packet_ms = frame_timeout_ms(c);
+    k->c = c;
+    k->frame.width = c->info.width;
+    k->frame.height = c->info.height;
+    c->on_event = capture_event;
+    c->event_ctx = k;
+    int rc = wdr_client_request(c, opcode, arg, arg_len);
+    if (rc == WDR_OK)
+        rc = pump_events(k, per_packet_ms, stop);
+    return rc;
+}
+
+int wdr_client_capture(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx)
+{
+    if (n == 0 || n > 65535)
+        return fail(c, WDR_E_INVAL, "frame count must be 1..65535");
+    capture_ctx k = {.frame.codes = codes, .frames_wanted = n, .on_frame = on_frame, .ctx = ctx};
+    uint8_t arg[4];
+    wdr_put_u32(arg, n);
+    int rc = run_capture(c, &k, WDR_CMD_CAPTURE, arg, sizeof arg, NULL);
+    c->on_event = NULL;
+    if (rc != WDR_OK && rc != WDR_E_IO)
+        abort_quietly(c);
+    return rc;
+}
+
+int wdr_client_stream(wdr_client *c, uint16_t *codes, wdr_frame_fn on_frame, void *ctx, volatile int *stop)
+{
+    capture_ctx k = {.frame.codes = codes, .frames_wanted = UINT32_MAX, .on_frame = on_frame, .ctx = ctx};
+    uint8_t on = 1, off = 0;
+    int rc = run_capture(c, &k, WDR_CMD_STREAM, &on, 1, stop);
+    if (rc == WDR_E_IO)
+        return rc;
+    k.stopping = 1; /* rows still in flight belong to a frame nobody wants */
+    int rc_off = wdr_client_request(c, WDR_CMD_STREAM, &off, 1);
+    c->on_event = NULL;
+    return rc != WDR_OK ? rc : rc_off;
+}

@@ -1,0 +1,94 @@
+/* Host side of the wire protocol (firmware/SPEC.md) over a transport: connect with a version
+ * check, numbered requests with bounded timeouts and retries (the board answers a repeated
+ * sequence number from its cache, so a retry never executes twice), chunked uploads that
+ * compare the CRC the board read back, and frame capture from ROW/FRAME_END events. */
+#ifndef WDR_TRANSPORT_CLIENT_H
+#define WDR_TRANSPORT_CLIENT_H
+#include "transport.h"
+#include "wdr_proto.h"
+#include <stddef.h>
+#include <stdint.h>
+
+/* Host-only outcomes, continuing enum wdr_transport_err. */
+enum wdr_client_err {
+    WDR_E_STATUS = -66,  /* the board answered with a non-OK status: see wdr_client.status */
+    WDR_E_PROTOCOL = -67 /* the board answered something the protocol does not allow */
+};
+
+#define WDR_CLIENT_TIMEOUT_MS 2000 /* per attempt, default */
+#define WDR_CLIENT_RETRIES 2       /* extra attempts after a timeout or a garbled answer */
+
+/* Called for every event packet (ROW, FRAME_END) while a request waits or a capture runs.
+ * Return WDR_OK to go on, or an error to stop the capture with it. */
+typedef int (*wdr_event_fn)(void *ctx, const wdr_packet *p);
+
+/* Called after each chunk of an upload with bytes sent and total. */
+typedef void (*wdr_progress_fn)(void *ctx, size_t done, size_t total);
+
+typedef struct wdr_client {
+    wdr_transport *t;            /* not owned */
+    int timeout_ms, retries;
+    uint16_t seq;                /* last sequence number used */
+    int status;                  /* enum wdr_status of the last response */
+    wdr_info info;               /* from connect */
+    uint32_t retries_used;       /* attempts repeated since connect (for tests and reports) */
+    wdr_event_fn on_event;
+    void *event_ctx;
+    wdr_proto_decoder dec;
+    uint8_t tx[WDR_PROTO_MAX_FRAME];
+    uint8_t reply[WDR_PROTO_MAX_PAYLOAD]; /* payload of the last response */
+    uint32_t reply_len;
+    uint8_t rx[16384];           /* received bytes not yet fed to the decoder */
+    size_t rx_pos, rx_len;
+    char err[256];               /* message for the last failure */
+} wdr_client;
+
+/* Ask INFO with our protocol version; fills c->info.
+ * @retval WDR_OK
+ * @retval WDR_E_VERSION   the board speaks another major version (message names both)
+ * @retval WDR_E_TIMEOUT, WDR_E_IO, WDR_E_PROTOCOL */
+int wdr_client_connect(wdr_client *c, wdr_transport *t);
+
+/* One request and its response; the response payload is in c->reply / c->reply_len.
+ * @retval WDR_OK         status OK
+ * @retval WDR_E_STATUS   the board refused: c->status says why, c->err too
+ * @retval WDR_E_TIMEOUT  no answer after the retries
+ * @retval WDR_E_IO       the board disconnected
+ * @retval WDR_E_PROTOCOL an answer with the wrong opcode or flags */
+int wdr_client_request(wdr_client *c, uint8_t opcode, const void *payload, uint32_t len);
+
+int wdr_client_status(wdr_client *c, wdr_status_report *out);
+
+/* Upload a table (kind: enum wdr_table_kind) in chunks, commit, and compare the CRC the board
+ * read back from flash with ours. progress may be NULL.
+ * @retval WDR_OK, request errors, WDR_E_CORRUPT (board stored other bytes than we sent) */
+int wdr_client_upload(wdr_client *c, int kind, const uint8_t *table, size_t len, wdr_progress_fn progress,
+                      void *progress_ctx, wdr_commit_reply *out);
+
+/* One captured frame, assembled from ROW events. */
+typedef struct wdr_frame {
+    uint16_t width, height;
+    uint16_t *codes;       /* width*height, rows top-down (caller-provided) */
+    wdr_frame_end end;
+    uint32_t rows_seen;
+} wdr_frame;
+
+/* Called once per complete frame; return WDR_OK to go on. */
+typedef int (*wdr_frame_fn)(void *ctx, const wdr_frame *f);
+
+/* Capture n frames: one CAPTURE request, then frames until n FRAME_ENDs. codes must hold
+ * width*height values. A frame that misses rows is an error (WDR_E_PROTOCOL).
+ * @retval WDR_OK, request errors, WDR_E_TIMEOUT (rows stopped coming) */
+int wdr_client_capture(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx);
+
+/* Stream until on_frame returns non-OK or *stop becomes non-zero, then switch streaming off
+ * and drain. @retval WDR_OK when stopped by on_frame's WDR_E_... or *stop; request errors */
+int wdr_client_stream(wdr_client *c, uint16_t *codes, wdr_frame_fn on_frame, void *ctx, volatile int *stop);
+
+/* Simulated boards only: light every pixel with amps. */
+int wdr_client_set_illuminant(wdr_client *c, double amps);
+
+/* Text of a protocol status. */
+const char *wdr_client_status_text(int status);
+
+#endif

@@ -1,0 +1,623 @@
+/* wdrctl commands that talk to a board: devices, info, status, lut upload/select, cal upload,
+ * capture, stream, integration, sim illuminant. The board is chosen with --device ADDR or
+ * $WDR_DEVICE (sim:/path.sock, usb, usb:BUS-ADDR); failures map to sysexits codes. */
+#include "image_io.h"
+#include "transport.h"
+#include "transport_client.h"
+#include "wdr_cal.h"
+#include "wdr_err.h"
+#include "wdr_lut.h"
+#include "wdrctl.h"
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+/* ---- Options shared by the device commands ------------------------------------------------ */
+
+enum opt_bit {
+    OPT_OUT = 1 << 0, OPT_COUNT = 1 << 1, OPT_BITS = 1 << 2, OPT_RAW = 1 << 3, OPT_AVERAGE = 1 << 4,
+    OPT_NO_VERIFY = 1 << 5, OPT_SECONDS = 1 << 6, OPT_NEGATE = 1 << 7
+};
+
+typedef struct dev_opts {
+    const char *device, *out;
+    int timeout_ms, retries, count, bits, raw, average, no_verify, negate;
+    double seconds;
+    int n_args;
+    char **args; /* positional arguments after the options */
+} dev_opts;
+
+static const struct option long_opts[] = {
+    {"device", required_argument, NULL, 'd'}, {"timeout", required_argument, NULL, 't'},
+    {"retries", required_argument, NULL, 'r'}, {"output", required_argument, NULL, 'o'},
+    {"count", required_argument, NULL, 'n'},  {"bits", required_argument, NULL, 'b'},
+    {"raw", no_argument, NULL, 'R'},          {"average", no_argument, NULL, 'A'},
+    {"no-verify", no_argument, NULL, 'V'},    {"seconds", required_argument, NULL, 's'},
+    {"negate", no_argument, NULL, 'N'},       {"help", no_argument, NULL, 'h'},
+    {NULL, 0, NULL, 0}};
+
+static int opt_allowed(int c, int allowed)
+{
+    switch (c) {
+    case 'o': return allowed & OPT_OUT;
+    case 'n': return allowed & OPT_COUNT;
+    case 'b': return allowed & OPT_BITS;
+    case 'R': return allowed & OPT_RAW;
+    case 'A': return allowed & OPT_AVERAGE;
+    case 'V': return allowed & OPT_NO_VERIFY;
+    case 's': return allowed & OPT_SECONDS;
+    case 'N': return allowed & OPT_NEGATE;
+    default: return 1;
+    }
+}
+
+static int parse_int(const char *cmd, const char *name, const char *text, long lo, long hi, int *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(text, &end, 0);
+    if (errno || end == text || *end || v < lo || v > hi)
+        return wdrctl_fail(EX_USAGE, "%s: %s must be an integer in %ld..%ld, got '%s'", cmd, name, lo, hi, text);
+    *out = (int)v;
+    return EX_OK;
+}
+
+static int parse_double(const char *cmd, const char *name, const char *text, double *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(text, &end);
+    if (errno || end == text || *end || !isfinite(v))
+        return wdrctl_fail(EX_USAGE, "%s: %s must be a finite number, got '%s'", cmd, name, text);
+    *out = v;
+    return EX_OK;
+}
+
+static int set_opt(const char *cmd, int c, dev_opts *o)
+{
+    switch (c) {
+    case 'd': o->device = optarg; return EX_OK;
+    case 'o': o->out = optarg; return EX_OK;
+    case 't': return parse_int(cmd, "--timeout", optarg, 1, 3600000, &o->timeout_ms);
+    case 'r': return parse_int(cmd, "--retries", optarg, 0, 100, &o->retries);
+    case 'n': return parse_int(cmd, "-n", optarg, 1, 65535, &o->count);
+    case 'b': return parse_int(cmd, "--bits", optarg, 8, 16, &o->bits);
+    case 's': return parse_double(cmd, "--seconds", optarg, &o->seconds);
+    case 'R': o->raw = 1; return EX_OK;
+    case 'A': o->average = 1; return EX_OK;
+    case 'V': o->no_verify = 1; return EX_OK;
+    case 'N': o->negate = 1; return EX_OK;
+    default: return EX_USAGE;
+    }
+}
+
+/* Parse argv (argv[0] is the command name); n_args_min..max positional arguments. */
+static int parse_opts(int argc, char **argv, const char *cmd, int allowed, int n_min, int n_max, dev_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    o->device = getenv("WDR_DEVICE");
+    o->timeout_ms = WDR_CLIENT_TIMEOUT_MS;
+    o->retries = WDR_CLIENT_RETRIES;
+    o->bits = 16;
+    optind = 1;
+    opterr = 0;
+    int c;
+    while ((c = getopt_long(argc, argv, ":d:t:r:o:n:b:s:", long_opts, NULL)) != -1) {
+        if (c == '?' || c == ':' || c == 'h' || !opt_allowed(c, allowed))
+            return wdrctl_fail(EX_USAGE, "%s: %s '%s' (see wdrctl --help)", cmd,
+                               c == ':' ? "missing value for option" : "unknown or inapplicable option",
+                               argv[optind - 1]);
+        int rc = set_opt(cmd, c, o);
+        if (rc != EX_OK)
+            return rc;
+    }
+    o->args = argv + optind;
+    o->n_args = argc - optind;
+    if (o->n_args < n_min || o->n_args > n_max)
+        return wdrctl_fail(EX_USAGE, "%s: expected %d..%d arguments, got %d (see wdrctl --help)", cmd, n_min, n_max,
+                           o->n_args);
+    if (o->bits != 8 && o->bits != 16)
+        return wdrctl_fail(EX_USAGE, "%s: --bits must be 8 or 16, got %d", cmd, o->bits);
+    return EX_OK;
+}
+
+/* ---- Connection and exit codes --------------------------------------------------------------- */
+
+static int exit_for_status(int status)
+{
+    switch (status) {
+    case WDR_ST_BUSY: return EX_TEMPFAIL;
+    case WDR_ST_NO_TABLE: return EX_CONFIG;
+    case WDR_ST_UNSUPPORTED: return EX_UNAVAILABLE;
+    case WDR_ST_BAD_SEQUENCE:
+    case WDR_ST_BAD_LENGTH:
+    case WDR_ST_BAD_VERSION: return EX_PROTOCOL;
+    case WDR_ST_FLASH: return EX_IOERR;
+    default: return EX_DATAERR; /* the table or value we sent was refused */
+    }
+}
+
+int wdrctl_exit_code(int rc, int status)
+{
+    switch (rc) {
+    case WDR_OK: return EX_OK;
+    case WDR_E_ABSENT: return EX_UNAVAILABLE;
+    case WDR_E_DENIED: return EX_NOPERM;
+    case WDR_E_BUSY:
+    case WDR_E_TIMEOUT: return EX_TEMPFAIL;
+    case WDR_E_IO: return EX_IOERR;
+    case WDR_E_PROTOCOL:
+    case WDR_E_VERSION:
+    case WDR_E_CORRUPT: return EX_PROTOCOL;
+    case WDR_E_INVAL: return EX_USAGE;
+    case WDR_E_NOMEM: return EX_OSERR;
+    case WDR_E_STATUS: return exit_for_status(status);
+    default: return EX_SOFTWARE;
+    }
+}
+
+int wdrctl_connect(const char *address, int timeout_ms, int retries, wdrctl_conn *conn)
+{
+    char err[320];
+    memset(conn, 0, sizeof *conn);
+    int rc = wdr_transport_open(address, &conn->t, err, sizeof err);
+    if (rc != WDR_OK)
+        return wdrctl_fail(wdrctl_exit_code(rc, 0), "%s", err);
+    conn->c = calloc(1, sizeof *conn->c);
+    if (!conn->c) {
+        wdr_transport_close(conn->t);
+        return wdrctl_fail(EX_OSERR, "out of memory");
+    }
+    conn->c->timeout_ms = timeout_ms;
+    conn->c->retries = retries;
+    rc = wdr_client_connect(conn->c, conn->t);
+    if (rc != WDR_OK) {
+        int code = wdrctl_conn_fail(conn, rc);
+        wdrctl_disconnect(conn);
+        return code;
+    }
+    return EX_OK;
+}
+
+int wdrctl_conn_fail(wdrctl_conn *conn, int rc)
+{
+    return wdrctl_fail(wdrctl_exit_code(rc, conn->c->status), "%s", conn->c->err);
+}
+
+void wdrctl_disconnect(wdrctl_conn *conn)
+{
+    wdr_transport_close(conn->t);
+    free(conn->c);
+    memset(conn, 0, sizeof *conn);
+}
+
+static int connect_opts(const dev_opts *o, wdrctl_conn *conn)
+{
+    return wdrctl_connect(o->device, o->timeout_ms, o->retries, conn);
+}
+
+/* ---- devices, info, status ----------------------------------------------------------------------- */
+
+static void print_sim_device(const dev_opts *o)
+{
+    wdrctl_conn conn;
+    if (wdrctl_connect(o->device, o->timeout_ms, o->retries, &conn) != EX_OK)
+        return; /* the message is out; listing goes on */
+    const wdr_info *i = &conn.c->info;
+    printf("%-24s simulated  %-16s %ux%u  sensor 0x%08x\n", o->device, i->name, i->width, i->height, i->sensor_id);
+    wdrctl_disconnect(&conn);
+}
+
+int cmd_devices(int argc, char **argv)
+{
+    dev_opts o;
+    int rc = parse_opts(argc, argv, "devices", 0, 0, 0, &o);
+    if (rc != EX_OK)
+        return rc;
+    wdr_usb_board boards[16];
+    char err[256];
+    int n = wdr_transport_list_usb(boards, 16, err, sizeof err);
+    if (n < 0)
+        wdrctl_fail(0, "USB: %s", err);
+    for (int i = 0; i < n; i++)
+        printf("%-24s usb        %04x:%04x        serial %s\n", boards[i].address_text, boards[i].vid, boards[i].pid,
+               boards[i].serial);
+    if (o.device && !strncmp(o.device, "sim:", 4))
+        print_sim_device(&o);
+    else if (n <= 0)
+        fprintf(stderr, "wdrctl: no wdrcam USB board (%04x:%04x) found; give --device sim:PATH for a simulated one\n",
+                WDR_USB_VID, WDR_USB_PID);
+    return EX_OK;
+}
+
+int cmd_info(int argc, char **argv)
+{
+    dev_opts o;
+    wdrctl_conn conn;
+    int rc = parse_opts(argc, argv, "info", 0, 0, 0, &o);
+    if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
+        return rc;
+    const wdr_info *i = &conn.c->info;
+    printf("device:        %s\nboard:         %s\nsensor id:     0x%08x\ngeometry:      %ux%u\n",
+           wdr_transport_name(conn.t), i->name, i->sensor_id, i->width, i->height);
+    printf("adc/dac bits:  %u/%u\nrow time:      %u ns\nprotocol:      %u.%u\nfirmware:      %u.%u\n", i->adc_bits,
+           i->dac_bits, i->row_time_ns, i->proto_major, i->proto_minor, i->fw_major, i->fw_minor);
+    printf("max payload:   %u bytes\nLUT capacity:  %u bytes\nCAL capacity:  %u bytes\nsimulated:     %s\n",
+           i->max_payload, i->lut_capacity, i->cal_capacity, (i->caps & WDR_INFO_CAP_ILLUMINANT) ? "yes" : "no");
+    wdrctl_disconnect(&conn);
+    return EX_OK;
+}
+
+static const char *slot_name(uint8_t slot) { return slot == 0 ? "A" : slot == 1 ? "B" : "none"; }
+
+static void print_status(const wdr_status_report *s)
+{
+    static const char *const states[] = {"idle", "reset", "integrate", "readout"};
+    printf("state:         %s\n", s->state < 4 ? states[s->state] : "?");
+    printf("LUT:           slot %s, seq %u, crc %08x\n", slot_name(s->lut_slot), s->lut_seq, s->lut_crc);
+    printf("calibration:   slot %s, seq %u, crc %08x\n", slot_name(s->cal_slot), s->cal_seq, s->cal_crc);
+    printf("upload:        %s, %u bytes received\n",
+           s->upload_kind == WDR_KIND_LUT ? "LUT" : s->upload_kind == WDR_KIND_CAL ? "calibration" : "none",
+           s->upload_received);
+    printf("frames:        %u\nintegration:   %u ns\nframe time:    %u ns\nboard time:    %llu ns\n", s->frames,
+           s->integration_ns, s->frame_time_ns, (unsigned long long)s->time_ns);
+    printf("rx skipped:    %u bytes\nrx bad CRC:    %u frames\n", s->rx_skipped, s->rx_bad_crc);
+}
+
+int cmd_status(int argc, char **argv)
+{
+    dev_opts o;
+    wdrctl_conn conn;
+    wdr_status_report s;
+    int rc = parse_opts(argc, argv, "status", 0, 0, 0, &o);
+    if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
+        return rc;
+    rc = wdr_client_status(conn.c, &s);
+    if (rc == WDR_OK)
+        print_status(&s);
+    int code = rc == WDR_OK ? EX_OK : wdrctl_conn_fail(&conn, rc);
+    wdrctl_disconnect(&conn);
+    return code;
+}
+
+/* ---- Uploads ------------------------------------------------------------------------------------ */
+
+static int read_file(const char *path, uint8_t **buf, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return wdrctl_fail(EX_NOINPUT, "cannot open %s: %s", path, strerror(errno));
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    *buf = malloc(n > 0 ? (size_t)n : 1);
+    if (n <= 0 || !*buf || fread(*buf, 1, (size_t)n, f) != (size_t)n) {
+        fclose(f);
+        free(*buf);
+        return wdrctl_fail(n == 0 ? EX_DATAERR : EX_IOERR, "%s: %s", path, n == 0 ? "empty file" : "cannot read");
+    }
+    fclose(f);
+    *len = (size_t)n;
+    return EX_OK;
+}
+
+static void upload_progress(void *ctx, size_t done, size_t total)
+{
+    fprintf(stderr, "\r%s: %3d%% (%zu/%zu bytes)%s", (const char *)ctx, (int)(100.0 * (double)done / (double)total),
+            done, total, done == total ? "\n" : "");
+}
+
+/* Check a table here first, so a broken file gets a message naming it rather than a status. */
+static int verify_table(int kind, const char *path, const uint8_t *buf, size_t len, const wdr_info *info)
+{
+    int rc;
+    if (kind == WDR_KIND_LUT) {
+        wdr_lut_view v;
+        rc = wdr_lut_parse(buf, len, &v);
+        if (rc == WDR_OK && v.h.dac_bits != info->dac_bits)
+            return wdrctl_fail(EX_DATAERR, "%s: LUT made for a %u-bit DAC, the board has %u bits", path, v.h.dac_bits,
+                               info->dac_bits);
+    } else {
+        wdr_cal_view v;
+        rc = wdr_cal_parse(buf, len, &v);
+        if (rc == WDR_OK)
+            rc = wdr_cal_check_geometry(&v, info->sensor_id, info->width, info->height);
+    }
+    if (rc != WDR_OK)
+        return wdrctl_fail(EX_DATAERR, "%s: not a valid %s table for this board: %s", path,
+                           kind == WDR_KIND_LUT ? "LUT" : "calibration", wdr_strerror(rc));
+    return EX_OK;
+}
+
+static int upload(int argc, char **argv, int kind, const char *cmd)
+{
+    dev_opts o;
+    wdrctl_conn conn;
+    uint8_t *buf = NULL;
+    size_t len = 0;
+    int rc = parse_opts(argc, argv, cmd, OPT_NO_VERIFY, 1, 1, &o);
+    if (rc != EX_OK || (rc = read_file(o.args[0], &buf, &len)) != EX_OK)
+        return rc;
+    if ((rc = connect_opts(&o, &conn)) != EX_OK) {
+        free(buf);
+        return rc;
+    }
+    if (!o.no_verify)
+        rc = verify_table(kind, o.args[0], buf, len, &conn.c->info);
+    wdr_commit_reply reply;
+    int up = rc == EX_OK ? wdr_client_upload(conn.c, kind, buf, len, wdrctl_show_progress() ? upload_progress : NULL,
+                                             (void *)cmd, &reply)
+                         : WDR_OK;
+    if (rc == EX_OK && up != WDR_OK)
+        rc = wdrctl_conn_fail(&conn, up);
+    else if (rc == EX_OK)
+        printf("%s: %zu bytes stored in slot %s, seq %u, crc %08x (verified)\n", o.args[0], len,
+               slot_name(reply.slot), reply.seq, reply.crc);
+    wdrctl_disconnect(&conn);
+    free(buf);
+    return rc;
+}
+
+int cmd_lut_upload(int argc, char **argv) { return upload(argc, argv, WDR_KIND_LUT, "lut upload"); }
+
+int cmd_cal_upload(int argc, char **argv) { return upload(argc, argv, WDR_KIND_CAL, "cal upload"); }
+
+/* ---- Small requests ------------------------------------------------------------------------------- */
+
+static int simple_request(dev_opts *o, uint8_t opcode, const uint8_t *payload, uint32_t len, const char *done)
+{
+    wdrctl_conn conn;
+    int rc = connect_opts(o, &conn);
+    if (rc != EX_OK)
+        return rc;
+    int r = wdr_client_request(conn.c, opcode, payload, len);
+    rc = r == WDR_OK ? EX_OK : wdrctl_conn_fail(&conn, r);
+    if (rc == EX_OK)
+        printf("%s\n", done);
+    wdrctl_disconnect(&conn);
+    return rc;
+}
+
+int cmd_lut_select(int argc, char **argv)
+{
+    dev_opts o;
+    int rc = parse_opts(argc, argv, "lut select", 0, 1, 1, &o);
+    if (rc != EX_OK)
+        return rc;
+    const char *s = o.args[0];
+    uint8_t slot = !strcmp(s, "A") || !strcmp(s, "a") ? 0 : !strcmp(s, "B") || !strcmp(s, "b") ? 1 : WDR_SLOT_NEWEST;
+    if (slot == WDR_SLOT_NEWEST && strcmp(s, "newest"))
+        return wdrctl_fail(EX_USAGE, "lut select: slot must be A, B or newest, got '%s'", s);
+    return simple_request(&o, WDR_CMD_LUT_SELECT, &slot, 1, "LUT selected");
+}
+
+int cmd_integration(int argc, char **argv)
+{
+    dev_opts o;
+    double ns = 0;
+    int rc = parse_opts(argc, argv, "integration", 0, 1, 1, &o);
+    if (rc != EX_OK || (rc = parse_double("integration", "NS", o.args[0], &ns)) != EX_OK)
+        return rc;
+    if (ns < 0 || ns > 4294967295.0)
+        return wdrctl_fail(EX_USAGE, "integration: NS must be 0..4294967295 (0: the LUT's own), got %s", o.args[0]);
+    uint8_t p[4];
+    wdr_put_u32(p, (uint32_t)ns);
+    return simple_request(&o, WDR_CMD_SET_INTEGRATION, p, 4, "integration time set");
+}
+
+int cmd_sim_illuminant(int argc, char **argv)
+{
+    dev_opts o;
+    wdrctl_conn conn;
+    double amps = 0;
+    int rc = parse_opts(argc, argv, "sim illuminant", 0, 1, 1, &o);
+    if (rc != EX_OK || (rc = parse_double("sim illuminant", "AMPS", o.args[0], &amps)) != EX_OK)
+        return rc;
+    if (amps < 0)
+        return wdrctl_fail(EX_USAGE, "sim illuminant: AMPS must be >= 0, got %s", o.args[0]);
+    if ((rc = connect_opts(&o, &conn)) != EX_OK)
+        return rc;
+    int r = wdr_client_set_illuminant(conn.c, amps);
+    rc = r == WDR_OK ? EX_OK : wdrctl_conn_fail(&conn, r);
+    if (rc == EX_OK)
+        printf("illuminant set to %g A on every pixel\n", amps);
+    wdrctl_disconnect(&conn);
+    return rc;
+}
+
+/* ---- Capture -------------------------------------------------------------------------------------- */
+
+typedef struct capture_job {
+    const dev_opts *o;
+    const wdr_info *info;
+    double *sum;          /* --average */
+    uint32_t frames;
+    int err;              /* sysexits of a failed write */
+    int progress;
+} capture_job;
+
+/* "out.png" -> "out-0003.png" for frame 3 of several. */
+static void frame_path(const char *out, uint32_t index, int several, char *path, size_t cap)
+{
+    const char *dot = strrchr(out, '.');
+    if (!several || !dot)
+        snprintf(path, cap, "%s", out);
+    else
+        snprintf(path, cap, "%.*s-%04u%s", (int)(dot - out), out, index, dot);
+}
+
+static int has_ext(const char *path, const char *ext)
+{
+    size_t n = strlen(path), e = strlen(ext);
+    return n > e && !strcasecmp(path + n - e, ext);
+}
+
+/* Codes (or averaged codes) to the file: PFM keeps codes as floats; PNG scales the ADC range to
+ * 8 or 16 bits unless --raw; --negate flips it so that brighter light looks brighter. */
+static int write_image(const capture_job *j, const char *path, const double *codes)
+{
+    const dev_opts *o = j->o;
+    int w = j->info->width, h = j->info->height;
+    double full = (double)((1u << j->info->adc_bits) - 1u);
+    size_t n = (size_t)w * (size_t)h;
+    char err[320];
+    int rc;
+    if (has_ext(path, ".pfm")) {
+        float *f = malloc(n * sizeof *f);
+        if (!f)
+            return wdrctl_fail(EX_OSERR, "out of memory");
+        for (size_t i = 0; i < n; i++)
+            f[i] = (float)(o->negate ? full - codes[i] : codes[i]);
+        rc = wdr_pfm_write(path, f, w, h, err, sizeof err);
+        free(f);
+    } else {
+        uint16_t *px = malloc(n * sizeof *px);
+        if (!px)
+            return wdrctl_fail(EX_OSERR, "out of memory");
+        double top = o->raw ? full : o->bits == 8 ? 255.0 : 65535.0;
+        for (size_t i = 0; i < n; i++) {
+            double v = (o->negate ? full - codes[i] : codes[i]) * top / full;
+            px[i] = (uint16_t)lround(v < 0 ? 0 : v > top ? top : v);
+        }
+        rc = wdr_png_write_gray(path, px, w, h, o->raw ? 16 : o->bits, err, sizeof err);
+        free(px);
+    }
+    return rc == WDR_OK ? EX_OK : wdrctl_fail(rc == WDR_E_IO ? EX_CANTCREAT : EX_SOFTWARE, "%s", err);
+}
+
+static int on_captured(void *ctx, const wdr_frame *f)
+{
+    capture_job *j = ctx;
+    size_t n = (size_t)f->width * f->height;
+    if (j->progress)
+        fprintf(stderr, "\rcapture: frame %u/%d", j->frames + 1, j->o->count);
+    if (j->o->average) {
+        for (size_t i = 0; i < n; i++)
+            j->sum[i] += f->codes[i];
+    } else {
+        char path[1024];
+        for (size_t i = 0; i < n; i++)
+            j->sum[i] = f->codes[i];
+        frame_path(j->o->out, j->frames, j->o->count > 1, path, sizeof path);
+        j->err = write_image(j, path, j->sum);
+    }
+    j->frames++;
+    return j->err == EX_OK ? WDR_OK : WDR_E_IO;
+}
+
+static int check_output_name(const char *cmd, const char *out)
+{
+    if (!out)
+        return wdrctl_fail(EX_USAGE, "%s: -o FILE (.png or .pfm) is required", cmd);
+    if (!has_ext(out, ".png") && !has_ext(out, ".pfm"))
+        return wdrctl_fail(EX_USAGE, "%s: output '%s' must end in .png or .pfm", cmd, out);
+    return EX_OK;
+}
+
+static int run_capture(const dev_opts *o, wdrctl_conn *conn)
+{
+    const wdr_info *info = &conn->c->info;
+    size_t n = (size_t)info->width * info->height;
+    capture_job j = {.o = o, .info = info, .progress = wdrctl_show_progress() && o->count > 1};
+    uint16_t *codes = malloc(n * sizeof *codes);
+    j.sum = calloc(n, sizeof *j.sum);
+    if (!codes || !j.sum) {
+        free(codes);
+        free(j.sum);
+        return wdrctl_fail(EX_OSERR, "out of memory for a %ux%u frame", info->width, info->height);
+    }
+    int r = wdr_client_capture(conn->c, (uint32_t)o->count, codes, on_captured, &j);
+    if (j.progress)
+        fputc('\n', stderr);
+    int rc = j.err != EX_OK ? j.err : r != WDR_OK ? wdrctl_conn_fail(conn, r) : EX_OK;
+    if (rc == EX_OK && o->average) {
+        for (size_t i = 0; i < n; i++)
+            j.sum[i] /= o->count;
+        rc = write_image(&j, o->out, j.sum);
+    }
+    if (rc == EX_OK)
+        fprintf(stderr, "wdrctl: captured %u frame(s) of %ux%u into %s%s\n", j.frames, info->width, info->height,
+                o->out, o->count > 1 && !o->average ? " (numbered)" : "");
+    free(codes);
+    free(j.sum);
+    return rc;
+}
+
+int cmd_capture(int argc, char **argv)
+{
+    dev_opts o;
+    wdrctl_conn conn;
+    int rc = parse_opts(argc, argv, "capture", OPT_OUT | OPT_COUNT | OPT_BITS | OPT_RAW | OPT_AVERAGE | OPT_NEGATE, 0,
+                        0, &o);
+    if (rc != EX_OK || (rc = check_output_name("capture", o.out)) != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
+        return rc;
+    o.count = o.count ? o.count : 1;
+    rc = run_capture(&o, &conn);
+    wdrctl_disconnect(&conn);
+    return rc;
+}
+
+/* ---- Stream ----------------------------------------------------------------------------------------- */
+
+static volatile int stream_stop;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    stream_stop = 1;
+}
+
+typedef struct stream_job {
+    const dev_opts *o;
+    uint32_t frames;
+    int64_t t0_ms;
+} stream_job;
+
+static int on_streamed(void *ctx, const wdr_frame *f)
+{
+    stream_job *s = ctx;
+    size_t n = (size_t)f->width * f->height;
+    double sum = 0;
+    uint16_t lo = 0xffff, hi = 0;
+    for (size_t i = 0; i < n; i++) {
+        sum += f->codes[i];
+        lo = f->codes[i] < lo ? f->codes[i] : lo;
+        hi = f->codes[i] > hi ? f->codes[i] : hi;
+    }
+    printf("frame %u  mean %.2f  min %u  max %u\n", f->end.frame, sum / (double)n, lo, hi);
+    fflush(stdout);
+    s->frames++;
+    double elapsed = (double)(wdr_transport_now_ms() - s->t0_ms) / 1000.0;
+    if ((s->o->count > 0 && s->frames >= (uint32_t)s->o->count) || (s->o->seconds > 0 && elapsed >= s->o->seconds))
+        stream_stop = 1;
+    return WDR_OK;
+}
+
+int cmd_stream(int argc, char **argv)
+{
+    dev_opts o;
+    wdrctl_conn conn;
+    int rc = parse_opts(argc, argv, "stream", OPT_COUNT | OPT_SECONDS, 0, 0, &o);
+    if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
+        return rc;
+    uint16_t *codes = malloc((size_t)conn.c->info.width * conn.c->info.height * sizeof *codes);
+    stream_job s = {.o = &o, .t0_ms = wdr_transport_now_ms()};
+    struct sigaction sa = {.sa_handler = on_signal}, old_int, old_term;
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
+    stream_stop = 0;
+    int r = codes ? wdr_client_stream(conn.c, codes, on_streamed, &s, &stream_stop) : WDR_E_NOMEM;
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
+    double secs = (double)(wdr_transport_now_ms() - s.t0_ms) / 1000.0;
+    rc = r == WDR_OK ? EX_OK : r == WDR_E_NOMEM ? wdrctl_fail(EX_OSERR, "out of memory") : wdrctl_conn_fail(&conn, r);
+    fprintf(stderr, "wdrctl: %u frames in %.2f s (%.1f frames/s)\n", s.frames, secs, secs > 0 ? s.frames / secs : 0.0);
+    free(codes);
+    wdrctl_disconnect(&conn);
+    return rc;
+}
