@@ -1,0 +1,17 @@
+/* HDR images in, one luminance value per pixel out: OpenEXR (C API, RGB(A) or Y, half or
+ * float, scanline or tiled), Radiance .hdr (stb_image) and PFM (image_io.h).
+ * Luminance is Y = 0.2126 R + 0.7152 G + 0.0722 B (Rec. 709 primaries, linear values). */
+#ifndef WDR_HDR_IMAGE_H
+#define WDR_HDR_IMAGE_H
+
+/* Load path as a luminance map; *lum is malloc'd (free()), w*h values, rows top-down.
+ * The format is told by the file's first bytes, not its name. Values are passed through as
+ * stored: NaN, Inf and negatives are for the caller to judge (a scene must name them).
+ * @retval WDR_OK
+ * @retval WDR_E_IO           missing or unreadable (err names the file)
+ * @retval WDR_E_INVAL        not an image we read, or damaged (err names the file and what)
+ * @retval WDR_E_UNSUPPORTED  an EXR without R,G,B or Y channels, or deep data
+ * @retval WDR_E_NOMEM */
+int wdr_hdr_load(const char *path, float **lum, int *w, int *h, char *err, int errlen);
+
+#endif

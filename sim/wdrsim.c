@@ -1,0 +1,343 @@
+/* wdrsim: render raw frames of a scene through a LUT on a board, without the firmware.
+ * Writes PFM (codes as floats) or a 16-bit PNG, each with a JSON sidecar of the parameters and
+ * the effect report; --json prints the report. Exit codes follow sysexits. */
+#include "image_io.h"
+#include "wdr_err.h"
+#include "wdr_lut.h"
+#include "wdr_scene.h"
+#include "wdr_sim.h"
+#include <cJSON.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sysexits.h>
+#include <time.h>
+#include <unistd.h>
+
+typedef struct options {
+    const char *board, *scene, *lut, *operator_name, *out;
+    int json, threads, unquantised;
+    int have_seed, have_chip_seed;
+    uint64_t seed, chip_seed;
+    int n_effects;
+    const char *effects[32];
+} options;
+
+static int fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+static int fail(int code, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fputs("wdrsim: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    va_end(ap);
+    return code;
+}
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: wdrsim --board FILE --scene FILE (--lut LUT.bin | --operator NAME) [-o out.pfm|out.png]\n"
+               "              [--json] [--seed N] [--chip-seed N] [--threads N] [--unquantised]\n"
+               "              [--effect name=on|off|auto]...\n"
+               "effects: mismatch dark shot ktc read dac_quant adc_quant leakage clipping\n");
+}
+
+/* ---- arguments ---- */
+
+static int parse_u64(const char *flag, const char *text, uint64_t *out)
+{
+    char *end;
+    unsigned long long v = strtoull(text, &end, 0);
+    if (!*text || *end || text[0] == '-')
+        return fail(EX_USAGE, "%s: '%s' is not a non-negative integer", flag, text);
+    *out = v;
+    return EX_OK;
+}
+
+static int take_value(int argc, char **argv, int *i, const char **out)
+{
+    if (*i + 1 >= argc)
+        return fail(EX_USAGE, "%s needs a value", argv[*i]);
+    *out = argv[++*i];
+    return EX_OK;
+}
+
+static int parse_flag(options *o, int argc, char **argv, int *i)
+{
+    const char *a = argv[*i], *v = NULL;
+    if (!strcmp(a, "--json"))
+        return o->json = 1, EX_OK;
+    if (!strcmp(a, "--unquantised"))
+        return o->unquantised = 1, EX_OK;
+    if (take_value(argc, argv, i, &v))
+        return EX_USAGE;
+    uint64_t n;
+    if (!strcmp(a, "--board")) o->board = v;
+    else if (!strcmp(a, "--scene")) o->scene = v;
+    else if (!strcmp(a, "--lut")) o->lut = v;
+    else if (!strcmp(a, "--operator")) o->operator_name = v;
+    else if (!strcmp(a, "-o")) o->out = v;
+    else if (!strcmp(a, "--seed")) return o->have_seed = 1, parse_u64(a, v, &o->seed);
+    else if (!strcmp(a, "--chip-seed")) return o->have_chip_seed = 1, parse_u64(a, v, &o->chip_seed);
+    else if (!strcmp(a, "--threads")) {
+        if (parse_u64(a, v, &n) || n > 64)
+            return fail(EX_USAGE, "--threads: '%s' must be 0 (all cores) to 64", v);
+        o->threads = (int)n;
+    } else if (!strcmp(a, "--effect")) {
+        if (o->n_effects == 32)
+            return fail(EX_USAGE, "too many --effect options");
+        o->effects[o->n_effects++] = v;
+    } else
+        return fail(EX_USAGE, "unknown option '%s'", a);
+    return EX_OK;
+}
+
+static int parse_args(options *o, int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++) {
+        int rc = parse_flag(o, argc, argv, &i);
+        if (rc)
+            return rc;
+    }
+    if (!o->board || !o->scene || (!o->lut == !o->operator_name)) {
+        usage(stderr);
+        return fail(EX_USAGE, "need --board, --scene and one of --lut or --operator");
+    }
+    return EX_OK;
+}
+
+static int apply_effect(wdr_sim *s, const char *spec)
+{
+    char name[64];
+    const char *eq = strchr(spec, '=');
+    if (!eq || (size_t)(eq - spec) >= sizeof name)
+        return fail(EX_USAGE, "--effect '%s': expected name=on|off|auto", spec);
+    snprintf(name, sizeof name, "%.*s", (int)(eq - spec), spec);
+    int fx = wdr_effect_from_name(name);
+    if (fx < 0)
+        return fail(EX_USAGE, "--effect '%s': unknown effect '%s'", spec, name);
+    const char *m = eq + 1;
+    wdr_fx_mode mode = !strcmp(m, "on") ? WDR_FX_ON : !strcmp(m, "off") ? WDR_FX_OFF : WDR_FX_AUTO;
+    if (mode == WDR_FX_AUTO && strcmp(m, "auto"))
+        return fail(EX_USAGE, "--effect '%s': value '%s' must be on, off or auto", spec, m);
+    wdr_sim_set_effect(s, fx, mode);
+    return EX_OK;
+}
+
+/* ---- inputs ---- */
+
+static int load_board(const char *name, wdr_board *b)
+{
+    char path[1024], err[512];
+    wdr_board_path(name, path, sizeof path);
+    wdr_board_defaults(b);
+    int rc = wdr_board_load(path, b, err, sizeof err);
+    return rc ? fail(rc == WDR_E_IO ? EX_NOINPUT : EX_CONFIG, "%s", err) : EX_OK;
+}
+
+static int read_file(const char *path, uint8_t **buf, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return fail(EX_NOINPUT, "%s: cannot open LUT file", path);
+    long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+    *buf = n >= 0 && fseek(f, 0, SEEK_SET) == 0 ? malloc((size_t)n + 1) : NULL;
+    int ok = *buf && fread(*buf, 1, (size_t)n, f) == (size_t)n;
+    fclose(f);
+    *len = ok ? (size_t)n : 0;
+    return ok ? EX_OK : fail(EX_IOERR, "%s: cannot read LUT file", path);
+}
+
+static int load_lut(const options *o, const wdr_board *b, uint8_t **bytes, wdr_lut_view *lut)
+{
+    size_t len;
+    char err[512];
+    if (o->operator_name) {
+        int rc = wdr_sim_build_lut(b, o->operator_name, bytes, &len, NULL, err, sizeof err);
+        if (rc)
+            return fail(EX_USAGE, "--operator %s: %s", o->operator_name, err);
+    } else if (read_file(o->lut, bytes, &len)) {
+        return EX_NOINPUT;
+    }
+    int rc = wdr_lut_parse(*bytes, len, lut);
+    if (rc)
+        return fail(EX_DATAERR, "%s: not a valid LUT: %s", o->lut ? o->lut : "built LUT", wdr_strerror(rc));
+    return EX_OK;
+}
+
+/* ---- outputs ---- */
+
+static const char *mode_name(wdr_fx_mode m) { return m == WDR_FX_ON ? "on" : m == WDR_FX_OFF ? "off" : "auto"; }
+
+static cJSON *report_json(const options *o, const wdr_board *b, const wdr_scene *sc, const wdr_sim *s,
+                          double seconds, uint64_t chip_seed, uint64_t frame_seed)
+{
+    cJSON *root = cJSON_CreateObject(), *fx = cJSON_AddObjectToObject(root, "effects");
+    cJSON_AddStringToObject(root, "board", b->name);
+    cJSON_AddStringToObject(root, "scene", o->scene);
+    cJSON_AddStringToObject(root, "illumination", sc->illumination);
+    cJSON_AddStringToObject(root, "lut", o->lut ? o->lut : o->operator_name);
+    cJSON_AddNumberToObject(root, "width", b->width);
+    cJSON_AddNumberToObject(root, "height", b->height);
+    cJSON_AddNumberToObject(root, "adc_bits", b->adc_bits);
+    cJSON_AddNumberToObject(root, "chip_seed", (double)chip_seed);
+    cJSON_AddNumberToObject(root, "frame_seed", (double)frame_seed);
+    cJSON_AddNumberToObject(root, "photocurrent_min_A", sc->i_min);
+    cJSON_AddNumberToObject(root, "photocurrent_max_A", sc->i_max);
+    cJSON_AddNumberToObject(root, "integration_s", wdr_sim_integration_time(s));
+    cJSON_AddNumberToObject(root, "row_time_s", b->row_time_s);
+    cJSON_AddBoolToObject(root, "reference", sc->reference);
+    cJSON_AddNumberToObject(root, "auto_tolerance_lsb", sc->tolerance_lsb);
+    cJSON_AddNumberToObject(root, "render_seconds", seconds);
+    const wdr_fx_report *r = wdr_sim_report(s);
+    for (int k = 0; k < WDR_FX_COUNT; k++) {
+        cJSON *e = cJSON_AddObjectToObject(fx, wdr_effect_name(k));
+        cJSON_AddStringToObject(e, "requested", mode_name(r[k].requested));
+        cJSON_AddBoolToObject(e, "ran", r[k].ran);
+        cJSON_AddNumberToObject(e, "estimate_lsb", r[k].estimate_lsb);
+        cJSON_AddStringToObject(e, "why", r[k].why);
+    }
+    return root;
+}
+
+static int ends_with(const char *s, const char *tail)
+{
+    size_t n = strlen(s), m = strlen(tail);
+    return n >= m && !strcmp(s + n - m, tail);
+}
+
+static int write_sidecar(const char *out, const cJSON *report)
+{
+    char path[1100];
+    const char *dot = strrchr(out, '.');
+    snprintf(path, sizeof path, "%.*s.json", dot ? (int)(dot - out) : (int)strlen(out), out);
+    char *text = cJSON_Print(report);
+    FILE *f = fopen(path, "w");
+    int ok = f && text && fputs(text, f) >= 0 && fputc('\n', f) != EOF;
+    if (f && fclose(f))
+        ok = 0;
+    free(text);
+    return ok ? EX_OK : fail(EX_CANTCREAT, "%s: cannot write the JSON sidecar", path);
+}
+
+/* PNG: codes shifted to fill 16 bits (the sidecar's adc_bits undoes it); PFM: codes as floats. */
+static int write_image(const char *out, const wdr_board *b, const float *codes)
+{
+    char err[512];
+    long n = (long)b->width * b->height;
+    int rc;
+    if (ends_with(out, ".pfm")) {
+        rc = wdr_pfm_write(out, codes, b->width, b->height, err, sizeof err);
+    } else {
+        uint16_t *px = malloc((size_t)n * sizeof *px);
+        if (!px)
+            return fail(EX_OSERR, "out of memory");
+        for (long i = 0; i < n; i++)
+            px[i] = (uint16_t)((codes[i] < 0 ? 0 : (uint32_t)(codes[i] + 0.5f)) << (16 - b->adc_bits));
+        rc = wdr_png_write_gray(out, px, b->width, b->height, 16, err, sizeof err);
+        free(px);
+    }
+    return rc ? fail(EX_CANTCREAT, "%s", err) : EX_OK;
+}
+
+/* ---- rendering ---- */
+
+static void show_progress(void *ctx, int done, int total)
+{
+    (void)ctx;
+    fprintf(stderr, "\rwdrsim: rendering %3d%%", (int)(100.0 * done / total));
+    if (done == total)
+        fputc('\n', stderr);
+}
+
+static int progress_wanted(void)
+{
+    const char *ci = getenv("CI");
+    return isatty(2) && !(ci && *ci && strcmp(ci, "false"));
+}
+
+static int render(wdr_sim *s, const options *o, uint64_t frame_seed, float *codes, double *seconds)
+{
+    long n = (long)wdr_sim_board(s)->width * wdr_sim_board(s)->height;
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    int rc;
+    if (o->unquantised) {
+        rc = wdr_sim_render_float(s, frame_seed, codes);
+    } else {
+        uint16_t *raw = malloc((size_t)n * sizeof *raw);
+        rc = raw ? wdr_sim_render(s, frame_seed, raw) : WDR_E_NOMEM;
+        for (long i = 0; !rc && i < n; i++)
+            codes[i] = raw[i];
+        free(raw);
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    *seconds = (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec);
+    return rc ? fail(EX_SOFTWARE, "render failed: %s", wdr_strerror(rc)) : EX_OK;
+}
+
+static int run(const options *o, const wdr_board *b, wdr_scene *sc, const wdr_lut_view *lut)
+{
+    uint64_t chip_seed = o->have_chip_seed ? o->chip_seed : sc->chip_seed;
+    uint64_t frame_seed = o->have_seed ? o->seed : sc->frame_seed;
+    wdr_sim *s = wdr_sim_create(b, chip_seed);
+    float *codes = malloc((size_t)b->width * b->height * sizeof *codes);
+    if (!s || !codes) {
+        wdr_sim_destroy(s);
+        free(codes);
+        return fail(EX_OSERR, "out of memory for a %dx%d sensor", b->width, b->height);
+    }
+    int rc = wdr_sim_set_lut(s, lut) ? fail(EX_DATAERR, "%s: the simulator cannot play this LUT (a falling ramp?)",
+                                            o->lut ? o->lut : "LUT")
+                                     : wdr_scene_apply(sc, s) ? fail(EX_DATAERR, "%s: cannot apply", o->scene) : EX_OK;
+    wdr_sim_set_threads(s, o->threads);
+    for (int k = 0; !rc && k < o->n_effects; k++)
+        rc = apply_effect(s, o->effects[k]);
+    if (!rc && progress_wanted())
+        wdr_sim_set_progress(s, show_progress, NULL);
+    double seconds = 0;
+    if (!rc)
+        rc = render(s, o, frame_seed, codes, &seconds);
+    cJSON *report = rc ? NULL : report_json(o, b, sc, s, seconds, chip_seed, frame_seed);
+    if (!rc && o->out && !(rc = write_image(o->out, b, codes)))
+        rc = write_sidecar(o->out, report);
+    if (!rc && o->json) {
+        char *text = cJSON_Print(report);
+        puts(text ? text : "{}");
+        free(text);
+    }
+    cJSON_Delete(report);
+    wdr_sim_destroy(s);
+    free(codes);
+    return rc;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")))
+        return usage(stdout), EX_OK;
+    options o = {0};
+    wdr_board b;
+    wdr_scene sc;
+    wdr_lut_view lut;
+    uint8_t *bytes = NULL;
+    char err[1024];
+    int rc = parse_args(&o, argc, argv);
+    if (!rc)
+        rc = load_board(o.board, &b);
+    if (!rc)
+        rc = load_lut(&o, &b, &bytes, &lut);
+    if (!rc && (rc = wdr_scene_load(o.scene, &b, &sc, err, sizeof err)))
+        rc = fail(rc == WDR_E_IO ? EX_NOINPUT : rc == WDR_E_NOMEM ? EX_OSERR : EX_DATAERR, "%s", err);
+    else if (!rc) {
+        if (sc.warning[0])
+            fprintf(stderr, "wdrsim: warning: %s\n", sc.warning);
+        rc = run(&o, &b, &sc, &lut);
+        wdr_scene_free(&sc);
+    }
+    free(bytes);
+    return rc;
+}
