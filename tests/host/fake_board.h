@@ -1,0 +1,56 @@
+/* A scripted stand-in for a board on the other end of a socket: it decodes requests with the
+ * firmware's codec and lets each test decide, per request, what goes back (a good answer,
+ * nothing, garbage, a broken frame, a hang-up). Runs in its own thread; every wait is bounded. */
+#ifndef FAKE_BOARD_H
+#define FAKE_BOARD_H
+#include "wdr_proto.h"
+#include <pthread.h>
+#include <stdint.h>
+
+typedef struct fake_board fake_board;
+
+/* What to do with one request; return 0 to go on, -1 to hang up. n is the request's index. */
+typedef int (*fake_script)(fake_board *b, const wdr_packet *req, int n);
+
+struct fake_board {
+    int fd;                 /* connected socket, or -1 until accepted */
+    int listen_fd;          /* -1 when built on a socketpair */
+    fake_script script;
+    void *user;
+    int requests;           /* requests seen */
+    int opcodes[256];       /* request count per opcode */
+    uint16_t last_seq;
+    uint16_t width, height;
+    pthread_t thread;
+    volatile int stop;
+};
+
+/* Serve an already connected fd (one end of a socketpair). */
+void fake_board_start_fd(fake_board *b, int fd, fake_script script);
+
+/* Listen on path, accept one host, serve it. */
+int fake_board_start_listen(fake_board *b, const char *path, fake_script script);
+
+/* Stop the thread and close the sockets. */
+void fake_board_stop(fake_board *b);
+
+/* Send a response to req with status and payload (len bytes). */
+void fake_reply(fake_board *b, const wdr_packet *req, int status, const void *payload, uint32_t len);
+
+/* Send a response whose payload CRC is wrong. */
+void fake_reply_bad_crc(fake_board *b, const wdr_packet *req);
+
+/* Send raw bytes. */
+void fake_send_raw(fake_board *b, const void *bytes, size_t len);
+
+/* Send an event (ROW or FRAME_END) carrying seq. */
+void fake_event(fake_board *b, uint8_t opcode, uint16_t seq, const void *payload, uint32_t len);
+
+/* The INFO answer of a small board (width x height, 12-bit). */
+void fake_reply_info(fake_board *b, const wdr_packet *req, uint16_t major);
+
+/* A script that answers everything well: INFO, STATUS, uploads (commit with the right CRC), and
+ * CAPTURE with whole frames of value (row + frame) */
+int fake_script_good(fake_board *b, const wdr_packet *req, int n);
+
+#endif
