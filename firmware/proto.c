@@ -167,7 +167,7 @@ int wdr_status_from_err(int err)
     case WDR_E_SEQUENCE: return WDR_ST_BAD_SEQUENCE;
     case WDR_E_UNSUPPORTED: return WDR_ST_UNSUPPORTED;
     case WDR_E_IO: case WDR_E_POWER: return WDR_ST_FLASH;
-    case WDR_E_INVAL: return WDR_ST_BAD_TABLE;
+    case WDR_E_INVAL: case WDR_E_NUMERIC: return WDR_ST_BAD_TABLE;
     default: return WDR_ST_BAD_ARG;
     }
 }

@@ -1,0 +1,216 @@
+/* Table contents: the checks a stored LUT or calibration table must pass beyond its slot's
+ * CRC (its own format, its kind, this board's geometry), activation, and the per-row
+ * correction that READOUT runs on every frame. */
+#include "correct.h"
+#include "crc32.h"
+#include "wdr_fw.h"
+#include <string.h>
+
+#define CAL_MIN_DENOM 1e-3f /* the Moebius denominator r*y + 1 must stay this far from zero */
+
+static uint32_t data_addr(const wdr_fw *fw, int kind, int slot)
+{
+    return fw->store.slot[kind - 1][slot].addr + WDR_SLOT_DATA_OFFSET;
+}
+
+static uint16_t adc_max(const wdr_fw *fw) { return (uint16_t)((1u << fw->board.adc_bits) - 1u); }
+
+/* ---- LUT: loaded whole into the staging RAM buffer ----------------------------------------- */
+
+static int lut_check(wdr_fw *fw, uint32_t addr, uint32_t len)
+{
+    uint8_t *p = (uint8_t *)fw->lut_ram[fw->lut_buf ^ 1];
+    if (len > WDR_FW_LUT_MAX_BYTES)
+        return WDR_E_TOO_LARGE;
+    int err = hal_flash_read(addr, p, len);
+    if (err)
+        return err;
+    if (len >= 4 && wdr_get_u32(p) == WDR_CAL_MAGIC)
+        return WDR_E_KIND;
+    err = wdr_lut_parse(p, len, &fw->staged_lut);
+    if (err)
+        return err;
+    if (len != wdr_lut_size(fw->staged_lut.h.entry_count))
+        return WDR_E_INVAL;
+    return fw->staged_lut.h.dac_bits == fw->board.dac_bits ? WDR_OK : WDR_E_GEOMETRY;
+}
+
+/* ---- Calibration: too big for RAM, so checked row by row ----------------------------------- */
+
+static int finite_bits(float x)
+{
+    uint32_t u;
+    memcpy(&u, &x, sizeof u);
+    return ((u >> 23) & 0xffu) != 0xffu;
+}
+
+/* A view of the one row block held in fw->cal_row, as row 0 of a one-row table. */
+static void row_view(const wdr_fw *fw, const wdr_cal_view *full, wdr_cal_view *rv)
+{
+    *rv = *full;
+    rv->h.height = 1;
+    rv->payload = (const uint8_t *)fw->cal_row;
+}
+
+/* The kernel trusts its table: finite coefficients, denominators away from zero. */
+static int cal_row_check(const wdr_cal_view *rv, uint32_t *bad)
+{
+    for (int k = 0; k < rv->h.n_coeffs; k++) {
+        const float *c = wdr_cal_row_coeffs(rv, 0, k);
+        for (int i = 0; i < rv->h.width; i++)
+            if (!finite_bits(c[i]))
+                return WDR_E_NUMERIC;
+    }
+    if (rv->h.form == WDR_FORM_MOEBIUS) {
+        const float *r = wdr_cal_row_coeffs(rv, 0, 2);
+        for (int i = 0; i < rv->h.width; i++)
+            if (!(r[i] * (float)rv->h.raw_max + 1.0f >= CAL_MIN_DENOM))
+                return WDR_E_NUMERIC;
+    }
+    const uint8_t *f = wdr_cal_row_flags(rv, 0);
+    for (int i = 0; i < rv->h.width; i++)
+        *bad += f[i] != 0;
+    return WDR_OK;
+}
+
+/* The format's own header checks: wdr_cal_parse on the header alone stops at TRUNCATED
+ * exactly when everything it can see (magic, CRC, version, fields) is right. */
+static int cal_header(wdr_fw *fw, uint32_t addr, uint32_t len, wdr_cal_view *v)
+{
+    uint8_t *p = (uint8_t *)fw->cal_row;
+    if (len < WDR_CAL_HEADER_SIZE)
+        return WDR_E_TRUNCATED;
+    int err = hal_flash_read(addr, p, WDR_CAL_HEADER_SIZE);
+    if (err)
+        return err;
+    if (wdr_get_u32(p) == WDR_LUT_MAGIC)
+        return WDR_E_KIND;
+    err = wdr_cal_parse(p, WDR_CAL_HEADER_SIZE, v);
+    if (err != WDR_E_TRUNCATED)
+        return err ? err : WDR_E_INVAL;
+    if (len < WDR_CAL_HEADER_SIZE + (uint64_t)v->h.payload_len)
+        return WDR_E_TRUNCATED;
+    if (len > WDR_CAL_HEADER_SIZE + (uint64_t)v->h.payload_len)
+        return WDR_E_INVAL;
+    v->row_stride = wdr_cal_row_stride(v->h.width, v->h.n_coeffs);
+    v->payload = NULL;
+    return WDR_OK;
+}
+
+static int cal_geometry(const wdr_fw *fw, const wdr_cal_view *v)
+{
+    int err = wdr_cal_check_geometry(v, fw->board.sensor_id, fw->board.width, fw->board.height);
+    if (err)
+        return err;
+    if (v->h.raw_max != adc_max(fw))
+        return WDR_E_GEOMETRY;
+    return v->row_stride <= sizeof fw->cal_row ? WDR_OK : WDR_E_TOO_LARGE;
+}
+
+/* Read every row once: CRC of the payload, coefficient checks, flag count. A CRC mismatch
+ * wins over what the corrupted rows look like. */
+static int cal_rows_check(wdr_fw *fw, uint32_t addr, const wdr_cal_view *v)
+{
+    uint32_t crc = 0, bad = 0;
+    int content = WDR_OK;
+    wdr_cal_view rv;
+    row_view(fw, v, &rv);
+    for (uint32_t r = 0; r < v->h.height; r++) {
+        int err = hal_flash_read(addr + r * v->row_stride, fw->cal_row, v->row_stride);
+        if (err)
+            return err;
+        crc = wdr_crc32(crc, fw->cal_row, v->row_stride);
+        if (!content)
+            content = cal_row_check(&rv, &bad);
+    }
+    if (crc != v->h.payload_crc)
+        return WDR_E_CORRUPT;
+    if (content)
+        return content;
+    return bad == v->h.bad_pixels ? WDR_OK : WDR_E_INVAL;
+}
+
+static int cal_check(wdr_fw *fw, uint32_t addr, uint32_t len)
+{
+    wdr_cal_view *v = &fw->staged_cal;
+    int err = cal_header(fw, addr, len, v);
+    if (!err)
+        err = cal_geometry(fw, v);
+    if (!err)
+        err = cal_rows_check(fw, addr + WDR_CAL_HEADER_SIZE, v);
+    return err;
+}
+
+/* ---- Activation ------------------------------------------------------------------------------ */
+
+int wdr_fw_table_check(wdr_fw *fw, int kind, int slot, uint32_t len)
+{
+    uint32_t addr = data_addr(fw, kind, slot);
+    return kind == WDR_KIND_LUT ? lut_check(fw, addr, len) : cal_check(fw, addr, len);
+}
+
+/* Make the table that passed the last wdr_fw_table_check of this kind active. */
+void wdr_fw_table_activate(wdr_fw *fw, int kind, int slot)
+{
+    if (kind == WDR_KIND_LUT) {
+        fw->lut = fw->staged_lut;
+        fw->lut_buf ^= 1;
+        fw->lut_slot = slot;
+        fw->integration_ns = 0; /* an override was checked against the old ramp */
+    } else {
+        fw->cal = fw->staged_cal;
+        fw->cal_slot = slot;
+    }
+}
+
+static void identity_cal(wdr_fw *fw)
+{
+    fw->cal_slot = -1;
+    if (wdr_cal_identity(&fw->cal, fw->board.sensor_id, fw->board.width, fw->board.height, 1.0f, adc_max(fw),
+                         adc_max(fw)))
+        memset(&fw->cal, 0, sizeof fw->cal); /* width 0: wdr_fw_init refused this board already */
+}
+
+/* Newest slot whose content passes; a slot that fails is not a table and is skipped. */
+static void boot_kind(wdr_fw *fw, int kind)
+{
+    for (int tries = 0; tries < 2; tries++) {
+        int slot = wdr_store_newest(&fw->store, kind, -1);
+        if (slot < 0)
+            return;
+        wdr_slot *s = &fw->store.slot[kind - 1][slot];
+        if (!wdr_fw_table_check(fw, kind, slot, s->length)) {
+            wdr_fw_table_activate(fw, kind, slot);
+            return;
+        }
+        s->valid = 0;
+    }
+}
+
+void wdr_fw_tables_boot(wdr_fw *fw)
+{
+    fw->lut_slot = -1;
+    identity_cal(fw);
+    if (fw->boot_err)
+        return;
+    boot_kind(fw, WDR_KIND_LUT);
+    boot_kind(fw, WDR_KIND_CAL);
+}
+
+/* ---- The on-the-fly path ----------------------------------------------------------------------- */
+
+/* Correct fw->raw (row `row`) into out. With a table, the row's coefficients come from flash
+ * first; without one the identity runs, so every frame takes the same path. */
+int wdr_fw_correct_row(wdr_fw *fw, uint16_t row, uint16_t *out)
+{
+    if (fw->cal_slot < 0)
+        return wdr_correct_row(&fw->cal, row, fw->raw, out);
+    const wdr_cal_view *v = &fw->cal;
+    uint32_t addr = data_addr(fw, WDR_KIND_CAL, fw->cal_slot) + WDR_CAL_HEADER_SIZE + (uint32_t)row * v->row_stride;
+    int err = hal_flash_read(addr, fw->cal_row, v->row_stride);
+    if (err)
+        return err;
+    wdr_cal_view rv;
+    row_view(fw, v, &rv);
+    return wdr_correct_row(&rv, 0, fw->raw, out);
+}

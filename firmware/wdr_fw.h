@@ -1,0 +1,115 @@
+/* The controller firmware: boot, the frame state machine, tables and the wire protocol.
+ * The caller owns one wdr_fw (static: it holds every buffer) and drives it:
+ *
+ *     static wdr_fw fw;
+ *     hal_init();
+ *     wdr_fw_init(&fw);
+ *     for (;;)
+ *         if (!wdr_fw_task(&fw))
+ *             hal_wait_for_event();
+ *
+ * Re-running wdr_fw_init on the same flash is a reboot. */
+#ifndef WDR_FW_H
+#define WDR_FW_H
+#include "hal.h"
+#include "wdr_cal.h"
+#include "wdr_fw_config.h"
+#include "wdr_lut.h"
+#include "wdr_proto.h"
+#include "wdr_store.h"
+#include <stdbool.h>
+#include <stdint.h>
+
+enum wdr_fw_state { WDR_FW_IDLE = 0, WDR_FW_RESET = 1, WDR_FW_INTEGRATE = 2, WDR_FW_READOUT = 3 };
+
+typedef struct wdr_fw_tx {
+    uint32_t words[(WDR_PROTO_MAX_FRAME + 3u) / 4u]; /* one frame; word-aligned for in-place rows */
+    uint32_t len;
+} wdr_fw_tx;
+
+typedef struct wdr_fw {
+    hal_board_info board;
+    wdr_store store;
+    int boot_err;                 /* why the store could not start (0: it did) */
+
+    /* Active tables. The LUT lives in RAM (the DAC plays from it); the calibration table stays
+     * in flash and is read a row at a time into cal_row. */
+    uint32_t lut_ram[2][(WDR_FW_LUT_MAX_BYTES + 3u) / 4u]; /* active and staging */
+    int lut_buf;                  /* index of the active LUT's buffer */
+    int lut_slot, cal_slot;       /* active slots, -1: none */
+    wdr_lut_view lut;
+    wdr_cal_view cal;             /* active table's header, or the identity */
+    wdr_lut_view staged_lut;      /* last table that passed wdr_fw_table_check */
+    wdr_cal_view staged_cal;
+    uint32_t cal_row[WDR_FW_CAL_ROW_MAX_BYTES / 4u];
+
+    /* Frame sequencing */
+    uint8_t state;                /* enum wdr_fw_state */
+    uint32_t frames_left;         /* of the current CAPTURE */
+    bool streaming;
+    uint16_t capture_seq;
+    uint32_t frame_no;            /* frames completed since boot */
+    uint16_t row;                 /* next row to read */
+    uint64_t t_start, row_deadline;
+    uint32_t integration_ns;      /* 0: the LUT's own */
+    uint32_t frame_time_ns;
+    wdr_lut_view play;            /* the LUT as played, with the integration time in force */
+    uint16_t raw[WDR_FW_MAX_WIDTH];
+    bool frame_end_due;
+
+    /* Link */
+    wdr_proto_decoder dec;
+    uint8_t rx[WDR_FW_RX_CHUNK];
+    uint32_t rx_pos, rx_len;
+    wdr_fw_tx tx[WDR_FW_TX_SLOTS];
+    uint8_t tx_head, tx_count;
+    bool tx_in_flight;
+    uint8_t last_response[WDR_FW_RESPONSE_MAX];
+    uint32_t last_response_len;   /* 0: nothing to resend */
+    uint16_t last_seq;
+    uint8_t last_opcode;
+} wdr_fw;
+
+/* Start from whatever flash holds: read the board, check every stored table, activate the
+ * newest valid LUT and calibration table. Missing or broken tables are not errors.
+ * @retval WDR_OK
+ * @retval WDR_E_IO           board identity unavailable
+ * @retval WDR_E_UNSUPPORTED  sensor wider than WDR_FW_MAX_WIDTH (the firmware still answers
+ *                            INFO and STATUS, but never captures); flash errors leave no tables */
+int wdr_fw_init(wdr_fw *fw);
+
+/* Do the work that is ready: events, one incoming packet, one step of the frame.
+ * @return 1 if something happened (call again), 0 if idle (the caller may hal_wait_for_event). */
+int wdr_fw_task(wdr_fw *fw);
+
+/* Fill a status report (what STATUS answers). */
+void wdr_fw_status(const wdr_fw *fw, wdr_status_report *out);
+
+/* ---- Internal, shared between the firmware's files ----------------------------------------- */
+
+/* Content checks and activation (fw_tables.c). */
+void wdr_fw_tables_boot(wdr_fw *fw);
+int wdr_fw_table_check(wdr_fw *fw, int kind, int slot, uint32_t len);
+void wdr_fw_table_activate(wdr_fw *fw, int kind, int slot);
+int wdr_fw_correct_row(wdr_fw *fw, uint16_t row, uint16_t *out);
+
+/* Outgoing frames (fw_link.c). */
+uint8_t *wdr_fw_tx_reserve(wdr_fw *fw);
+void wdr_fw_tx_commit(wdr_fw *fw, const wdr_proto_header *h, uint32_t len);
+void wdr_fw_tx_commit_raw(wdr_fw *fw, uint32_t frame_len);
+int wdr_fw_tx_free(const wdr_fw *fw);
+void wdr_fw_tx_kick(wdr_fw *fw);
+void wdr_fw_tx_done(wdr_fw *fw);
+int wdr_fw_rx_service(wdr_fw *fw);
+
+/* Requests (fw_cmd.c) and frames (fw_frame.c). */
+void wdr_fw_handle(wdr_fw *fw, const wdr_packet *pkt);
+void wdr_fw_reply(wdr_fw *fw, const wdr_proto_header *req, int status, const uint8_t *payload, uint32_t len);
+int wdr_fw_frame_start(wdr_fw *fw, uint32_t frames, bool stream, uint16_t seq);
+void wdr_fw_frame_stop(wdr_fw *fw);
+int wdr_fw_frame_step(wdr_fw *fw);
+bool wdr_fw_busy(const wdr_fw *fw);
+void wdr_fw_frame_event(wdr_fw *fw, const hal_event *ev);
+int wdr_fw_set_integration(wdr_fw *fw, uint32_t ns);
+
+#endif

@@ -1,0 +1,297 @@
+/* The test board: every hal.h function over plain memory (see fake_board.h). */
+#include "fake_board.h"
+#include "hal.h"
+#include "wdr_proto.h"
+#include <assert.h>
+#include <string.h>
+
+#define EVQ_SIZE 64u
+#define FIFO_SIZE (1u << 21)
+
+typedef struct fifo {
+    uint8_t buf[FIFO_SIZE];
+    size_t head, tail; /* linear: reset when drained */
+} fifo;
+
+static struct {
+    uint8_t flash[FB_BLOCK_SIZE * FB_BLOCK_COUNT];
+    long ops, cut_at;
+    int torn, power_lost;
+    hal_event evq[EVQ_SIZE];
+    unsigned ev_head, ev_tail;
+    uint64_t now, timer_at, ramp_end;
+    int timer_armed, ramp_playing, tx_busy, row;
+    uint64_t ramp_ticks;
+    double amps;
+    fifo to_board, to_host;
+} fb;
+
+/* ---- Test API ------------------------------------------------------------------------------- */
+
+void fb_power_cycle(void)
+{
+    fb.ops = 0;
+    fb.cut_at = -1;
+    fb.torn = fb.power_lost = 0;
+    fb.ev_head = fb.ev_tail = 0;
+    fb.now = fb.timer_at = fb.ramp_end = 0;
+    fb.timer_armed = fb.ramp_playing = fb.tx_busy = 0;
+    fb.row = -1;
+    fb.to_board.head = fb.to_board.tail = fb.to_host.head = fb.to_host.tail = 0;
+}
+
+void fb_init(void)
+{
+    memset(fb.flash, 0xff, sizeof fb.flash);
+    fb.amps = 0;
+    fb_power_cycle();
+}
+
+void fb_cut_power_at(long op, int torn)
+{
+    fb.cut_at = op;
+    fb.torn = torn;
+}
+
+long fb_flash_ops(void) { return fb.ops; }
+int fb_power_lost(void) { return fb.power_lost; }
+uint8_t *fb_flash(void) { return fb.flash; }
+double fb_illuminant(void) { return fb.amps; }
+uint64_t fb_ramp_ticks(void) { return fb.ramp_ticks; }
+int fb_scheduled(void) { return fb.timer_armed || fb.ramp_playing; }
+
+uint16_t fb_pattern(int row, int col) { return (uint16_t)((row * 83 + col * 29 + 5) & 0xfff); }
+
+static void fifo_put(fifo *f, const void *p, size_t n)
+{
+    assert(f->tail + n <= FIFO_SIZE);
+    memcpy(f->buf + f->tail, p, n);
+    f->tail += n;
+}
+
+static size_t fifo_get(fifo *f, uint8_t *p, size_t cap)
+{
+    size_t n = f->tail - f->head < cap ? f->tail - f->head : cap;
+    memcpy(p, f->buf + f->head, n);
+    f->head += n;
+    if (f->head == f->tail)
+        f->head = f->tail = 0;
+    return n;
+}
+
+void fb_host_write(const void *bytes, size_t n) { fifo_put(&fb.to_board, bytes, n); }
+size_t fb_host_read(uint8_t *buf, size_t cap) { return fifo_get(&fb.to_host, buf, cap); }
+
+/* ---- Events and time ------------------------------------------------------------------------- */
+
+static void post(uint8_t type)
+{
+    unsigned next = (fb.ev_head + 1u) % EVQ_SIZE;
+    assert(next != fb.ev_tail);
+    fb.evq[fb.ev_head].type = type;
+    fb.evq[fb.ev_head].arg = 0;
+    fb.ev_head = next;
+}
+
+/* Post what is due at the current time. */
+static void fire_due(void)
+{
+    if (fb.ramp_playing && fb.now >= fb.ramp_end) {
+        fb.ramp_playing = 0;
+        post(HAL_EV_RAMP_DONE);
+    }
+    if (fb.timer_armed && fb.now >= fb.timer_at) {
+        fb.timer_armed = 0;
+        post(HAL_EV_TIMER);
+    }
+}
+
+int hal_init(void) { return WDR_OK; }
+
+int hal_event_poll(hal_event *ev)
+{
+    fire_due();
+    if (fb.ev_tail == fb.ev_head)
+        return 0;
+    *ev = fb.evq[fb.ev_tail];
+    fb.ev_tail = (fb.ev_tail + 1u) % EVQ_SIZE;
+    if (ev->type == HAL_EV_USB_TX_DONE)
+        fb.tx_busy = 0;
+    return 1;
+}
+
+/* Jump virtual time to the next scheduled happening. */
+void hal_wait_for_event(void)
+{
+    uint64_t next = UINT64_MAX;
+    if (fb.ramp_playing)
+        next = fb.ramp_end;
+    if (fb.timer_armed && fb.timer_at < next)
+        next = fb.timer_at;
+    if (next != UINT64_MAX && next > fb.now)
+        fb.now = next;
+    fire_due();
+}
+
+uint64_t hal_time_ns(void) { return fb.now; }
+void hal_delay_ns(uint32_t ns) { fb.now += ns; }
+
+void hal_timer_arm(uint64_t deadline_ns)
+{
+    fb.timer_at = deadline_ns;
+    fb.timer_armed = 1;
+}
+
+/* ---- Board and sensor ------------------------------------------------------------------------- */
+
+int hal_board_info_get(hal_board_info *out)
+{
+    memset(out, 0, sizeof *out);
+    out->sensor_id = FB_SENSOR_ID;
+    out->width = FB_WIDTH;
+    out->height = FB_HEIGHT;
+    out->adc_bits = FB_ADC_BITS;
+    out->dac_bits = FB_DAC_BITS;
+    out->row_time_ns = FB_ROW_TIME_NS;
+    out->caps = HAL_CAP_ILLUMINANT;
+    strcpy(out->name, "fake-board");
+    return WDR_OK;
+}
+
+int hal_pixel_reset(bool asserted)
+{
+    (void)asserted;
+    return WDR_OK;
+}
+
+int hal_row_select(uint16_t row)
+{
+    if (row >= FB_HEIGHT)
+        return WDR_E_INVAL;
+    fb.row = row;
+    return WDR_OK;
+}
+
+void hal_row_deselect(void) { fb.row = -1; }
+
+int hal_adc_convert(void)
+{
+    if (fb.row < 0)
+        return WDR_E_INVAL;
+    return fb.ramp_playing ? WDR_E_BUSY : WDR_OK;
+}
+
+int hal_adc_read_row(uint16_t *codes, size_t n)
+{
+    if (n != FB_WIDTH || fb.row < 0)
+        return WDR_E_INVAL;
+    for (size_t c = 0; c < n; c++)
+        codes[c] = fb_pattern(fb.row, (int)c);
+    return WDR_OK;
+}
+
+int hal_ramp_start(const wdr_lut_view *lut)
+{
+    if (fb.ramp_playing)
+        return WDR_E_BUSY;
+    if (lut->h.dac_bits != FB_DAC_BITS)
+        return WDR_E_GEOMETRY;
+    fb.ramp_ticks = lut->h.t_integration_ticks;
+    fb.ramp_end = fb.now + lut->h.t_integration_ticks * (uint64_t)lut->h.tick_ps / 1000u;
+    fb.ramp_playing = 1;
+    return WDR_OK;
+}
+
+void hal_ramp_stop(void) { fb.ramp_playing = 0; }
+
+int hal_set_illuminant(double amps)
+{
+    if (!(amps >= 0.0) || amps > 1.0)
+        return WDR_E_INVAL;
+    fb.amps = amps;
+    return WDR_OK;
+}
+
+/* ---- Flash: strict NOR with a power-cut counter ----------------------------------------------- */
+
+int hal_flash_geometry_get(hal_flash_geometry *g)
+{
+    g->block_size = FB_BLOCK_SIZE;
+    g->block_count = FB_BLOCK_COUNT;
+    g->prog_size = FB_PROG_SIZE;
+    return WDR_OK;
+}
+
+enum { POWER_ON, POWER_CUT_HERE, POWER_OFF };
+
+/* Count an operation and say whether power dies on it (or died before). */
+static int cut_now(void)
+{
+    if (fb.power_lost)
+        return POWER_OFF;
+    if (fb.ops++ == fb.cut_at) {
+        fb.power_lost = 1;
+        return POWER_CUT_HERE;
+    }
+    return POWER_ON;
+}
+
+int hal_flash_read(uint32_t addr, void *buf, uint32_t len)
+{
+    if (fb.power_lost)
+        return WDR_E_POWER;
+    if ((uint64_t)addr + len > sizeof fb.flash)
+        return WDR_E_INVAL;
+    memcpy(buf, fb.flash + addr, len);
+    return WDR_OK;
+}
+
+int hal_flash_erase(uint32_t block)
+{
+    if (block >= FB_BLOCK_COUNT)
+        return WDR_E_INVAL;
+    uint8_t *b = fb.flash + (size_t)block * FB_BLOCK_SIZE;
+    int power = cut_now();
+    if (power != POWER_ON) {
+        if (power == POWER_CUT_HERE && fb.torn)
+            memset(b, 0xff, FB_BLOCK_SIZE / 2);
+        return WDR_E_POWER;
+    }
+    memset(b, 0xff, FB_BLOCK_SIZE);
+    return WDR_OK;
+}
+
+int hal_flash_prog(uint32_t addr, const void *buf, uint32_t len)
+{
+    if (addr % FB_PROG_SIZE || len % FB_PROG_SIZE || (uint64_t)addr + len > sizeof fb.flash)
+        return WDR_E_INVAL;
+    for (uint32_t i = 0; i < len; i++)
+        if (fb.flash[addr + i] != 0xff)
+            return WDR_E_IO; /* strict: program only what was erased */
+    int power = cut_now();
+    if (power != POWER_ON) {
+        if (power == POWER_CUT_HERE && fb.torn)
+            memcpy(fb.flash + addr, buf, len / 2);
+        return WDR_E_POWER;
+    }
+    memcpy(fb.flash + addr, buf, len);
+    return WDR_OK;
+}
+
+/* ---- USB ----------------------------------------------------------------------------------------- */
+
+size_t hal_usb_max_transfer(void) { return WDR_PROTO_MAX_FRAME; }
+
+int hal_usb_read(uint8_t *buf, size_t cap) { return (int)fifo_get(&fb.to_board, buf, cap); }
+
+int hal_usb_write(const uint8_t *buf, size_t len)
+{
+    if (fb.tx_busy)
+        return WDR_E_BUSY;
+    if (len > WDR_PROTO_MAX_FRAME)
+        return WDR_E_TOO_LARGE;
+    fifo_put(&fb.to_host, buf, len);
+    fb.tx_busy = 1;
+    post(HAL_EV_USB_TX_DONE);
+    return WDR_OK;
+}

@@ -1,0 +1,47 @@
+/* A test board behind hal/hal.h: virtual time, strict NOR flash with an operation counter that
+ * cuts power, USB endpoints as byte FIFOs, an ADC that returns a known pattern. Test-only API
+ * (fb_*), separate from the HAL the firmware sees. One board per process. */
+#ifndef FAKE_BOARD_H
+#define FAKE_BOARD_H
+#include <stddef.h>
+#include <stdint.h>
+
+#define FB_WIDTH 64
+#define FB_HEIGHT 48
+#define FB_SENSOR_ID 77u
+#define FB_ADC_BITS 12
+#define FB_DAC_BITS 12
+#define FB_ROW_TIME_NS 20000u
+#define FB_BLOCK_SIZE 4096u
+#define FB_BLOCK_COUNT 64u
+#define FB_PROG_SIZE 16u
+
+/* Power on with erased flash (fresh board). */
+void fb_init(void);
+
+/* Power off and on: flash keeps its bytes; RAM state, queues, FIFOs and time restart. */
+void fb_power_cycle(void);
+
+/* Cut power at flash operation number op (0-based, erase and program count; -1: never).
+ * torn: the cut operation does half its work (half the bytes programmed, half a block erased). */
+void fb_cut_power_at(long op, int torn);
+long fb_flash_ops(void);   /* operations since fb_init or fb_power_cycle */
+int fb_power_lost(void);
+
+/* Raw flash, for tests that corrupt it on purpose. */
+uint8_t *fb_flash(void);
+
+/* The ADC code of a pixel in the test pattern (before any correction). */
+uint16_t fb_pattern(int row, int col);
+
+/* Host side of the USB link. */
+void fb_host_write(const void *bytes, size_t n);
+size_t fb_host_read(uint8_t *buf, size_t cap);
+
+/* Whether a timer or the ramp is still due, so that hal_wait_for_event has something to wait for. */
+int fb_scheduled(void);
+
+double fb_illuminant(void);
+uint64_t fb_ramp_ticks(void); /* t_integration_ticks of the last ramp played */
+
+#endif
