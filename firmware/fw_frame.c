@@ -2,6 +2,7 @@
  * Timing follows from the LUT (integration time) and the board (row time); the HAL's timer
  * and ramp-done events move it on, so the task loop never spins waiting. */
 #include "wdr_fw.h"
+#include "wdr_readout.h"
 #include <string.h>
 
 bool wdr_fw_busy(const wdr_fw *fw)
@@ -96,7 +97,7 @@ static int step_reset(wdr_fw *fw)
     return 1;
 }
 
-static int read_row(wdr_fw *fw, uint16_t *out)
+static int read_row(wdr_fw *fw)
 {
     int err = hal_row_select(fw->row);
     if (!err)
@@ -104,22 +105,23 @@ static int read_row(wdr_fw *fw, uint16_t *out)
     if (!err)
         err = hal_adc_read_row(fw->raw, fw->board.width);
     hal_row_deselect();
-    return err ? err : wdr_fw_correct_row(fw, fw->row, out);
+    return err ? err : wdr_fw_load_cal_row(fw, fw->row);
 }
 
 /* One row: ADC, correction in place in the outgoing frame, send. */
 static int step_row(wdr_fw *fw)
 {
-    uint8_t *pl = wdr_fw_tx_reserve(fw) + WDR_PROTO_HEADER_SIZE;
-    if (read_row(fw, (uint16_t *)(void *)(pl + WDR_PROTO_ROW_HEADER))) {
+    uint8_t *frame = wdr_fw_tx_reserve(fw);
+    uint32_t len;
+    int err = read_row(fw);
+    if (!err)
+        err = wdr_readout_row(&fw->cal, fw->cal_slot >= 0 ? fw->cal_row : NULL, fw->row, fw->frame_no,
+                              fw->capture_seq, fw->raw, frame, &len);
+    if (err) {
         fw->frame_end_due = true; /* FRAME_END reports the rows that made it */
         return 1;
     }
-    wdr_put_u32(pl, fw->frame_no);
-    wdr_put_u16(pl + 4, fw->row);
-    wdr_put_u16(pl + 6, fw->board.width);
-    wdr_proto_header h = {WDR_CMD_ROW, WDR_FLAG_EVENT, fw->capture_seq, 0, 0, 0};
-    wdr_fw_tx_commit(fw, &h, WDR_PROTO_ROW_HEADER + 2u * fw->board.width);
+    wdr_fw_tx_commit_raw(fw, len);
     fw->row++;
     fw->row_deadline += fw->board.row_time_ns;
     fw->frame_end_due = fw->row == fw->board.height;

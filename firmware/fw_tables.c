@@ -1,7 +1,6 @@
 /* Table contents: the checks a stored LUT or calibration table must pass beyond its slot's
  * CRC (its own format, its kind, this board's geometry), activation, and the per-row
  * correction that READOUT runs on every frame. */
-#include "correct.h"
 #include "crc32.h"
 #include "wdr_fw.h"
 #include <string.h>
@@ -44,7 +43,8 @@ static int finite_bits(float x)
     return ((u >> 23) & 0xffu) != 0xffu;
 }
 
-/* A view of the one row block held in fw->cal_row, as row 0 of a one-row table. */
+/* A view of the one row block held in fw->cal_row, as row 0 of a one-row table (as
+ * wdr_readout_row does). */
 static void row_view(const wdr_fw *fw, const wdr_cal_view *full, wdr_cal_view *rv)
 {
     *rv = *full;
@@ -199,18 +199,13 @@ void wdr_fw_tables_boot(wdr_fw *fw)
 
 /* ---- The on-the-fly path ----------------------------------------------------------------------- */
 
-/* Correct fw->raw (row `row`) into out. With a table, the row's coefficients come from flash
- * first; without one the identity runs, so every frame takes the same path. */
-int wdr_fw_correct_row(wdr_fw *fw, uint16_t row, uint16_t *out)
+/* Bring row `row` of the active calibration table from flash into fw->cal_row; nothing to do
+ * for the identity. READOUT runs wdr_readout_row on it for every row of every frame. */
+int wdr_fw_load_cal_row(wdr_fw *fw, uint16_t row)
 {
     if (fw->cal_slot < 0)
-        return wdr_correct_row(&fw->cal, row, fw->raw, out);
+        return WDR_OK;
     const wdr_cal_view *v = &fw->cal;
     uint32_t addr = data_addr(fw, WDR_KIND_CAL, fw->cal_slot) + WDR_CAL_HEADER_SIZE + (uint32_t)row * v->row_stride;
-    int err = hal_flash_read(addr, fw->cal_row, v->row_stride);
-    if (err)
-        return err;
-    wdr_cal_view rv;
-    row_view(fw, v, &rv);
-    return wdr_correct_row(&rv, 0, fw->raw, out);
+    return hal_flash_read(addr, fw->cal_row, v->row_stride);
 }

@@ -91,7 +91,7 @@ void wdr_fw_status(const wdr_fw *fw, wdr_status_report *out);
 void wdr_fw_tables_boot(wdr_fw *fw);
 int wdr_fw_table_check(wdr_fw *fw, int kind, int slot, uint32_t len);
 void wdr_fw_table_activate(wdr_fw *fw, int kind, int slot);
-int wdr_fw_correct_row(wdr_fw *fw, uint16_t row, uint16_t *out);
+int wdr_fw_load_cal_row(wdr_fw *fw, uint16_t row);
 
 /* Outgoing frames (fw_link.c). */
 uint8_t *wdr_fw_tx_reserve(wdr_fw *fw);
