@@ -1,0 +1,138 @@
+/* `auto` on every bundled scene, on the 640x480 board: it must agree with every effect on
+ * within the tolerance (float frames, max over pixels), and it takes less time where it skips
+ * effects (the ratio against literally every effect on is printed, never asserted: timing is
+ * the benchmark's job). A reference scene asks for a noiseless frame, so agreement there is
+ * judged against every non-noise effect on. */
+#include "sim_test.h"
+#include "wdr_scene.h"
+#include <time.h>
+
+#ifndef WDR_SOURCE_DIR
+#define WDR_SOURCE_DIR "."
+#endif
+
+static const char *const scenes[] = {"window", "log_wedge", "step_chart", "uniform"};
+
+static int is_noise(int fx) { return fx == WDR_FX_SHOT || fx == WDR_FX_KTC || fx == WDR_FX_READ; }
+
+static double seconds_now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
+/* Best of a few renders: the machine is shared, the minimum is the least disturbed. */
+static double timed_render(wdr_sim *s, uint64_t seed, float *out)
+{
+    double best = 1e30;
+    for (int k = 0; k < 5; k++) {
+        double t0 = seconds_now();
+        assert_int_equal(wdr_sim_render_float(s, seed, out), WDR_OK);
+        best = fmin(best, seconds_now() - t0);
+    }
+    return best;
+}
+
+static void check_report(const wdr_scene *sc, const wdr_fx_report *r)
+{
+    for (int fx = 0; fx < WDR_FX_COUNT; fx++) {
+        assert_true(strlen(r[fx].why) > 0);
+        assert_true(r[fx].estimate_lsb >= 0 && isfinite(r[fx].estimate_lsb));
+        if (sc->reference && is_noise(fx))
+            assert_false(r[fx].ran);
+        printf("    %-10s %-4s est %8.3f LSB  %s\n", wdr_effect_name(fx), r[fx].ran ? "ran" : "skip",
+               r[fx].estimate_lsb, r[fx].why);
+    }
+}
+
+static void auto_agrees_with_on(const char *name)
+{
+    char board_path[1024], path[1024], err[512];
+    wdr_board b;
+    wdr_scene sc;
+    test_chip tc;
+    wdr_board_path("sim-vga", board_path, sizeof board_path);
+    wdr_board_defaults(&b);
+    assert_int_equal(wdr_board_load(board_path, &b, err, sizeof err), WDR_OK);
+    snprintf(path, sizeof path, "%s/sim/scenes/%s.json", WDR_SOURCE_DIR, name);
+    if (wdr_scene_load(path, &b, &sc, err, sizeof err))
+        fail_msg("%s", err);
+    test_chip_open(&tc, &b, "reinhard", sc.chip_seed);
+    assert_int_equal(wdr_scene_apply(&sc, tc.s), WDR_OK);
+    long n = (long)b.width * b.height;
+    float *on = malloc(n * sizeof *on), *au = malloc(n * sizeof *au);
+    for (int fx = 0; fx < WDR_FX_COUNT; fx++)
+        wdr_sim_set_effect(tc.s, fx, WDR_FX_AUTO);
+    double t_auto = timed_render(tc.s, sc.frame_seed, au);
+    printf("%s:\n", name);
+    check_report(&sc, wdr_sim_report(tc.s));
+    for (int fx = 0; fx < WDR_FX_COUNT; fx++)
+        wdr_sim_set_effect(tc.s, fx, WDR_FX_ON);
+    double t_on = timed_render(tc.s, sc.frame_seed, on);
+    if (sc.reference) { /* agreement is judged against the frame the scene asks for: noiseless */
+        for (int fx = 0; fx < WDR_FX_COUNT; fx++)
+            wdr_sim_set_effect(tc.s, fx, is_noise(fx) ? WDR_FX_OFF : WDR_FX_ON);
+        assert_int_equal(wdr_sim_render_float(tc.s, sc.frame_seed, on), WDR_OK);
+    }
+    double worst = 0;
+    for (long i = 0; i < n; i++)
+        worst = fmax(worst, fabs(on[i] - au[i]));
+    printf("  %s: auto vs all on%s: max |difference| %.4f LSB (tolerance %.3g); time all-on/auto = %.2f\n", name,
+           sc.reference ? " but noise" : "", worst, sc.tolerance_lsb, t_on / t_auto);
+    assert_true(worst <= sc.tolerance_lsb);
+    free(on), free(au);
+    wdr_scene_free(&sc);
+    test_chip_close(&tc);
+}
+
+static void window(void **state) { (void)state; auto_agrees_with_on(scenes[0]); }
+static void log_wedge(void **state) { (void)state; auto_agrees_with_on(scenes[1]); }
+static void step_chart(void **state) { (void)state; auto_agrees_with_on(scenes[2]); }
+static void uniform(void **state) { (void)state; auto_agrees_with_on(scenes[3]); }
+
+/* A tolerance so wide that everything but the big effects fits: auto skips them and still
+ * stays within it. */
+static void wide_tolerance_skips_more(void **state)
+{
+    (void)state;
+    wdr_board b;
+    test_chip tc;
+    test_board(&b, 32, 32);
+    test_chip_open(&tc, &b, "reinhard", 1);
+    for (int fx = 0; fx < WDR_FX_COUNT; fx++)
+        wdr_sim_set_effect(tc.s, fx, WDR_FX_AUTO);
+    wdr_sim_set_auto_tolerance(tc.s, 5.0);
+    float *au = uniform_frame(tc.s, 1e-11, 1);
+    const wdr_fx_report *r = wdr_sim_report(tc.s);
+    int skipped = 0;
+    double skipped_sum = 0;
+    for (int fx = 0; fx < WDR_FX_COUNT; fx++)
+        if (!r[fx].ran)
+            skipped++, skipped_sum += r[fx].estimate_lsb;
+    assert_true(skipped >= 4 && skipped_sum <= 5.0);
+    assert_true(r[WDR_FX_MISMATCH].ran);
+    for (int fx = 0; fx < WDR_FX_COUNT; fx++)
+        wdr_sim_set_effect(tc.s, fx, WDR_FX_ON);
+    float *on = uniform_frame(tc.s, 1e-11, 1);
+    double worst = 0;
+    for (long i = 0; i < 32 * 32; i++)
+        worst = fmax(worst, fabs(on[i] - au[i]));
+    printf("tolerance 5 LSB: %d effects skipped (sum of estimates %.2f LSB), max |difference| %.3f LSB\n", skipped,
+           skipped_sum, worst);
+    assert_true(worst <= 5.0);
+    free(on), free(au);
+    test_chip_close(&tc);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(window),
+        cmocka_unit_test(log_wedge),
+        cmocka_unit_test(step_chart),
+        cmocka_unit_test(uniform),
+        cmocka_unit_test(wide_tolerance_skips_more),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
