@@ -3,6 +3,7 @@
 #ifndef HARNESS_H
 #define HARNESS_H
 #include "fake_board.h"
+#include "table_builders.h"
 #include "wdr_fw.h"
 #include "wdr_proto.h"
 #include <stdint.h>
@@ -37,12 +38,6 @@ int th_last_seq(void);
 /* BEGIN(len, crc of data) + chunks of chunk bytes + COMMIT; the first failing status, or the
  * commit's. reply (may be NULL) gets the commit reply. */
 int th_upload(wdr_fw *fw, int kind, const uint8_t *data, uint32_t len, uint32_t chunk, wdr_commit_reply *reply);
-
-/* A LUT of n entries (rising codes from code0, 100 ticks apart, 1 ns ticks). Returns its size. */
-size_t th_make_lut(uint8_t *out, uint32_t n, uint16_t code0, uint8_t dac_bits);
-
-/* A Moebius calibration table whose every pixel maps y to gain*y + offset. Returns its size. */
-size_t th_make_cal(uint8_t *out, float gain, float offset, uint32_t sensor_id, uint16_t w, uint16_t h);
 
 /* STATUS of the board. */
 wdr_status_report th_status(wdr_fw *fw);

@@ -58,7 +58,7 @@ static void decoder_survives(void **state)
     (void)state;
     static wdr_proto_decoder d;
     long packets = 0, errors = 0;
-    for (int round = 0; round < 300; round++) {
+    for (int round = 0; round < 2000; round++) {
         size_t n = round % 2 ? mutated_stream() : random_stream();
         wdr_proto_decoder_init(&d);
         for (size_t off = 0; off < n;) {
@@ -90,7 +90,7 @@ static void firmware_survives(void **state)
     th_boot(&fw);
     size_t lut_len = th_make_lut(lut, 64, 0, FB_DAC_BITS);
     assert_int_equal(th_upload(&fw, WDR_KIND_LUT, lut, (uint32_t)lut_len, 4096, NULL), WDR_ST_OK);
-    for (int round = 0; round < 60; round++) {
+    for (int round = 0; round < 200; round++) {
         size_t n = round % 2 ? mutated_stream() : random_stream();
         th_send_raw(&fw, buf, n);
         uint8_t off = 0;

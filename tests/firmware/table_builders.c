@@ -1,0 +1,59 @@
+/* Tables for tests, built with the formats' own encoders. No HAL: any test may link it. */
+#include "table_builders.h"
+#include "wdr_cal.h"
+#include "wdr_lut.h"
+#include <stdlib.h>
+#include <string.h>
+
+size_t th_make_lut(uint8_t *out, uint32_t n, uint16_t code0, uint8_t dac_bits)
+{
+    static uint32_t t[WDR_LUT_MAX_ENTRIES];
+    static uint16_t codes[WDR_LUT_MAX_ENTRIES];
+    wdr_lut_header h;
+    memset(&h, 0, sizeof h);
+    h.operator_id = WDR_OP_REINHARD;
+    h.dac_bits = dac_bits;
+    h.timing = WDR_TIMING_STAMPED;
+    h.entry_count = n;
+    h.tick_ps = 1000;
+    h.t_integration_ticks = n * 100u + 50u;
+    h.dac_lo_v = 0.0f;
+    h.dac_hi_v = 3.3f;
+    for (uint32_t i = 0; i < n; i++) {
+        t[i] = i * 100u;
+        codes[i] = (uint16_t)((code0 + i) & ((1u << dac_bits) - 1u));
+    }
+    wdr_lut_encode(&h, t, codes, out);
+    return wdr_lut_size(n);
+}
+
+size_t th_make_cal(uint8_t *out, float gain, float offset, uint32_t sensor_id, uint16_t w, uint16_t h)
+{
+    static float coeffs[3 * 4096 * 64];
+    static uint8_t flags[4096 * 64];
+    size_t n = (size_t)w * h;
+    if (n > 4096 * 64)
+        abort();
+    wdr_cal_header hd;
+    memset(&hd, 0, sizeof hd);
+    hd.sensor_id = sensor_id;
+    hd.width = w;
+    hd.height = h;
+    hd.form = WDR_FORM_MOEBIUS;
+    hd.n_coeffs = 3;
+    hd.model = WDR_MODEL_LSQ;
+    hd.operator_id = WDR_OP_REINHARD;
+    hd.in_scale = 1.0f;
+    hd.out_scale = 1.0f;
+    hd.out_max = 4095;
+    hd.raw_max = 4095;
+    for (size_t i = 0; i < n; i++) {
+        coeffs[i] = gain;
+        coeffs[n + i] = offset;
+        coeffs[2 * n + i] = 0.0f;
+    }
+    memset(flags, 0, n);
+    wdr_cal_encode(&hd, coeffs, flags, out);
+    return wdr_cal_size(w, h, 3);
+}
+

@@ -1,0 +1,14 @@
+/* Tables for tests, built with the formats' own encoders (wdr_lut_encode, wdr_cal_encode). */
+#ifndef TABLE_BUILDERS_H
+#define TABLE_BUILDERS_H
+#include <stddef.h>
+#include <stdint.h>
+
+/* A LUT of n entries (rising codes from code0, 100 ticks apart, 1 ns ticks). Returns its size. */
+size_t th_make_lut(uint8_t *out, uint32_t n, uint16_t code0, uint8_t dac_bits);
+
+/* A Moebius calibration table (12-bit codes) whose every pixel maps y to gain*y + offset.
+ * w*h at most 4096*64. Returns its size. */
+size_t th_make_cal(uint8_t *out, float gain, float offset, uint32_t sensor_id, uint16_t w, uint16_t h);
+
+#endif
