@@ -104,6 +104,7 @@ static int start_board(const simboard_opts *o, wdr_board *b)
 {
     char err[512];
     wdr_scene scene;
+    wdr_board_defaults(b); /* a board file overrides only what it names */
     int rc = wdr_board_load(o->board, b, err, sizeof err);
     if (rc == WDR_OK)
         rc = wdr_scene_load(o->scene, b, &scene, err, sizeof err);

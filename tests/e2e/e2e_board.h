@@ -1,0 +1,44 @@
+/* End-to-end rig: a real wdr-simboard child process on a socket in a private temp folder,
+ * a protocol client connected to it, and the Reinhard LUT built the way `wdrctl lut build`
+ * builds it. The child's stdin is a pipe: if the test dies, the board ends too. */
+#ifndef E2E_BOARD_H
+#define E2E_BOARD_H
+#include "board.h"
+#include "ramp.h"
+#include "transport_client.h"
+#include <stddef.h>
+#include <stdint.h>
+#include <sys/types.h>
+
+typedef struct e2e_board {
+    char dir[64];            /* mkdtemp folder: socket, scene, files */
+    char socket_path[128];
+    char address[160];       /* "sim:<socket_path>" */
+    char scene_path[128];
+    pid_t pid;
+    int stdin_fd;            /* write end of the child's stdin */
+    wdr_board board;
+    wdr_transport *t;
+    wdr_client *c;
+} e2e_board;
+
+/* Write the default scene (sim/scenes/window.json) with every fixed-pattern and temporal effect
+ * off and the quantisations on, start wdr-simboard on board_name, connect. 0 on success. */
+int e2e_start(e2e_board *e, const char *board_name);
+
+/* Disconnect, end the child (EOF on its stdin, then SIGTERM after a grace period), remove the folder. */
+void e2e_stop(e2e_board *e);
+
+/* Reinhard (scene statistics from the board's defaults) as LUT bytes (malloc'd), and its view. */
+int e2e_reinhard_lut(const wdr_board *b, uint8_t **bytes, size_t *len);
+
+/* The software tone-mapped scene: each pixel's photocurrent through the ideal pixel driven by
+ * lut (wdr_lut_ideal_response), the nominal source follower and the board's ADC line, rounded.
+ * codes gets width*height values. */
+int e2e_software_frame(const wdr_board *b, const char *scene_path, const uint8_t *lut, size_t lut_len,
+                       uint16_t *codes);
+
+/* Run a program with args (argv[0] included), bounded by a deadline; its exit code, or -1. */
+int e2e_run(char *const argv[], int deadline_s);
+
+#endif
