@@ -185,6 +185,19 @@ static uint32_t next_seq(const wdr_store *st, int kind)
     return newest < 0 ? 1u : st->slot[kind - 1][newest].seq + 1u;
 }
 
+/* Erase the slot's blocks up to end (exclusive) that are not erased yet. Erasing as data
+ * arrives keeps every request short: a BEGIN never erases a whole multi-megabyte slot. */
+static int erase_through(wdr_store *st, uint32_t end)
+{
+    while (st->up_erased < end) {
+        int err = hal_flash_erase(st->up_erased / st->geo.block_size);
+        if (err)
+            return err;
+        st->up_erased += st->geo.block_size;
+    }
+    return WDR_OK;
+}
+
 int wdr_store_begin(wdr_store *st, int kind, int active_slot, uint32_t len, uint32_t crc)
 {
     int index = active_slot == 0 ? 1 : 0;
@@ -195,14 +208,12 @@ int wdr_store_begin(wdr_store *st, int kind, int active_slot, uint32_t len, uint
     if (len > s->capacity)
         return WDR_E_TOO_LARGE;
     st->up_seq = next_seq(st, kind);
-    s->valid = 0; /* from the first erase on, this slot is not a table */
-    uint32_t first = s->addr / st->geo.block_size;
-    uint32_t n = blocks_for(&st->geo, WDR_SLOT_DATA_OFFSET + len);
-    for (uint32_t b = 0; b < n; b++) {
-        int err = hal_flash_erase(first + b);
-        if (err)
-            return err;
-    }
+    s->valid = 0;
+    st->up_erased = s->addr;
+    /* The first block holds header and marker: once it is erased the slot is no table. */
+    int err = erase_through(st, s->addr + WDR_SLOT_DATA_OFFSET);
+    if (err)
+        return err;
     st->up_kind = (uint8_t)kind;
     st->up_slot = (uint8_t)index;
     st->up_len = len;
@@ -217,7 +228,9 @@ static uint32_t data_addr(const wdr_store *st)
 
 static int prog_run(wdr_store *st, const uint8_t *p, uint32_t n)
 {
-    int err = hal_flash_prog(data_addr(st), p, n);
+    int err = erase_through(st, data_addr(st) + n);
+    if (!err)
+        err = hal_flash_prog(data_addr(st), p, n);
     if (!err)
         st->up_programmed += n;
     return err;

@@ -37,6 +37,7 @@ typedef struct wdr_store {
     /* upload in progress (kind 0: none) */
     uint8_t up_kind, up_slot;
     uint32_t up_len, up_crc, up_received, up_programmed, up_seq;
+    uint32_t up_erased;              /* address up to which the slot's blocks are erased */
     uint8_t tail[WDR_SLOT_MAX_PROG]; /* bytes held back until a whole program unit is there */
     uint32_t tail_fill;
     uint8_t scratch[WDR_SLOT_DATA_OFFSET];
@@ -55,7 +56,7 @@ int wdr_store_scan_slot(wdr_store *st, int kind, int slot);
 int wdr_store_newest(const wdr_store *st, int kind, int exclude);
 
 /* Start an upload of len bytes whose CRC-32 is crc into the slot that is not active, and
- * erase the blocks it needs. @retval WDR_OK  @retval WDR_E_INVAL len 0
+ * erase its first block (the rest are erased as chunks reach them). @retval WDR_OK  @retval WDR_E_INVAL len 0
  * @retval WDR_E_TOO_LARGE len > capacity  @retval WDR_E_IO  @retval WDR_E_POWER */
 int wdr_store_begin(wdr_store *st, int kind, int active_slot, uint32_t len, uint32_t crc);
 
