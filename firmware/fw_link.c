@@ -73,7 +73,7 @@ int wdr_fw_rx_service(wdr_fw *fw)
         return 0;
     if (fw->rx_pos == fw->rx_len) {
         int n = hal_usb_read(fw->rx, sizeof fw->rx);
-        if (n <= 0)
+        if (n <= 0 || (size_t)n > sizeof fw->rx) /* errors, and a backend breaking its contract */
             return 0;
         fw->rx_pos = 0;
         fw->rx_len = (uint32_t)n;
