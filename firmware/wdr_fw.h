@@ -71,11 +71,13 @@ typedef struct wdr_fw {
 } wdr_fw;
 
 /* Start from whatever flash holds: read the board, check every stored table, activate the
- * newest valid LUT and calibration table. Missing or broken tables are not errors.
+ * newest valid LUT and calibration table. Missing or broken tables are not errors. On any
+ * error below the firmware still runs and answers INFO and STATUS, with no tables.
  * @retval WDR_OK
- * @retval WDR_E_IO           board identity unavailable
- * @retval WDR_E_UNSUPPORTED  sensor wider than WDR_FW_MAX_WIDTH (the firmware still answers
- *                            INFO and STATUS, but never captures); flash errors leave no tables */
+ * @retval WDR_E_IO           board identity or flash unavailable
+ * @retval WDR_E_POWER        flash lost power while being read (simulated fault)
+ * @retval WDR_E_UNSUPPORTED  sensor wider than WDR_FW_MAX_WIDTH or odd bit depths, or a flash
+ *                            too small for four slots or with prog_size > 128 */
 int wdr_fw_init(wdr_fw *fw);
 
 /* Do the work that is ready: events, one incoming packet, one step of the frame.
