@@ -20,7 +20,7 @@ static struct {
     hal_event evq[EVQ_SIZE];
     unsigned ev_head, ev_tail;
     uint64_t now, timer_at, ramp_end;
-    int timer_armed, ramp_playing, tx_busy, row;
+    int timer_armed, ramp_playing, tx_busy, row, fail_row;
     uint64_t ramp_ticks;
     double amps;
     fifo to_board, to_host;
@@ -36,7 +36,7 @@ void fb_power_cycle(void)
     fb.ev_head = fb.ev_tail = 0;
     fb.now = fb.timer_at = fb.ramp_end = 0;
     fb.timer_armed = fb.ramp_playing = fb.tx_busy = 0;
-    fb.row = -1;
+    fb.row = fb.fail_row = -1;
     fb.to_board.head = fb.to_board.tail = fb.to_host.head = fb.to_host.tail = 0;
 }
 
@@ -58,6 +58,7 @@ int fb_power_lost(void) { return fb.power_lost; }
 uint8_t *fb_flash(void) { return fb.flash; }
 double fb_illuminant(void) { return fb.amps; }
 uint64_t fb_ramp_ticks(void) { return fb.ramp_ticks; }
+void fb_fail_adc_row(int row) { fb.fail_row = row; }
 int fb_scheduled(void) { return fb.timer_armed || fb.ramp_playing; }
 
 uint16_t fb_pattern(int row, int col) { return (uint16_t)((row * 83 + col * 29 + 5) & 0xfff); }
@@ -185,6 +186,8 @@ int hal_adc_read_row(uint16_t *codes, size_t n)
 {
     if (n != FB_WIDTH || fb.row < 0)
         return WDR_E_INVAL;
+    if (fb.row == fb.fail_row)
+        return WDR_E_IO;
     for (size_t c = 0; c < n; c++)
         codes[c] = fb_pattern(fb.row, (int)c);
     return WDR_OK;

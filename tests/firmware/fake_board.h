@@ -41,6 +41,9 @@ size_t fb_host_read(uint8_t *buf, size_t cap);
 /* Whether a timer or the ramp is still due, so that hal_wait_for_event has something to wait for. */
 int fb_scheduled(void);
 
+/* Make hal_adc_read_row fail with WDR_E_IO for this row (-1: never). */
+void fb_fail_adc_row(int row);
+
 double fb_illuminant(void);
 uint64_t fb_ramp_ticks(void); /* t_integration_ticks of the last ramp played */
 

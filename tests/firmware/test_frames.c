@@ -154,6 +154,23 @@ static void illuminant_reaches_the_hal(void **state)
     assert_true(fb_illuminant() == 2.5e-9);
 }
 
+/* A sensor that fails mid-frame ends the frame early, flagged, and stops the capture. */
+static void sensor_failure_ends_capture(void **state)
+{
+    (void)state;
+    fb_fail_adc_row(17);
+    assert_int_equal(th_capture_frames(&fw, 3), WDR_ST_OK);
+    fb_fail_adc_row(-1);
+    assert_int_equal(th_cap.rows, 17);
+    assert_int_equal(th_cap.frame_ends, 1);
+    assert_int_equal(th_cap.last_end.rows, 17);
+    assert_int_equal(th_cap.last_end.flags & 2, 2);
+    assert_int_equal(th_status(&fw).state, WDR_FW_IDLE);
+    assert_int_equal(th_capture_frames(&fw, 1), WDR_ST_OK);
+    assert_int_equal(th_cap.rows, FB_HEIGHT);
+    assert_int_equal(th_cap.last_end.flags & 2, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -164,6 +181,7 @@ int main(void)
         cmocka_unit_test(busy_while_streaming),
         cmocka_unit_test(retry_is_answered_not_repeated),
         cmocka_unit_test(illuminant_reaches_the_hal),
+        cmocka_unit_test(sensor_failure_ends_capture),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
