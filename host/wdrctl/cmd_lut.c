@@ -1,5 +1,6 @@
 /* wdrctl operators, wdrctl lut build, wdrctl lut plots: operator tables and their plots. */
 #include "board.h"
+#include "hdr_image.h"
 #include "image_io.h"
 #include "operators.h"
 #include "plot.h"
@@ -12,12 +13,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #define RAMP_SAMPLES 8192
 #define CHECK_CURRENTS 2001
 
 typedef struct lut_opts {
-    const char *op_name, *board, *out, *csv, *plot, *curve;
+    const char *op_name, *board, *out, *csv, *plot, *curve, *scene_image;
     const char *params[16];
     int n_params, json, repair, timing, entries, dac_bits;
     double l_avg, l_max, l_min;
@@ -87,6 +89,7 @@ static int parse_lut_option(int c, lut_opts *o)
     case 'c': o->csv = optarg; break;
     case 'P': o->plot = optarg; break;
     case 'u': o->curve = optarg; break;
+    case 'S': o->scene_image = optarg; break;
     case 'j': o->json = 1; break;
     case 'r': o->repair = 1; break;
     case 't': rc = parse_timing(optarg, &o->timing); break;
@@ -117,6 +120,7 @@ static int parse_lut_opts(int argc, char **argv, lut_opts *o)
         {"entries", required_argument, 0, 'e'},  {"dac-bits", required_argument, 0, 'd'},
         {"curve", required_argument, 0, 'u'},    {"l-avg", required_argument, 0, 'A'},
         {"l-max", required_argument, 0, 'M'},    {"l-min", required_argument, 0, 'N'},
+        {"scene-image", required_argument, 0, 'S'},
         {0, 0, 0, 0}};
     memset(o, 0, sizeof *o);
     o->timing = -1;
@@ -146,11 +150,32 @@ static int load_board(const char *name, wdr_board *b)
     return EX_OK;
 }
 
+/* Scene statistics measured from an HDR image (luminance in cd/m2). */
+static int stats_from_image(const char *path, wdr_scene_stats *st)
+{
+    char err[512];
+    float *lum;
+    if (access(path, R_OK) != 0)
+        return wdrctl_fail(EX_NOINPUT, "%s: cannot read scene image", path);
+    int w, h, rc = wdr_hdr_load(path, &lum, &w, &h, err, sizeof err);
+    if (rc)
+        return wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_DATAERR, "%s", err);
+    rc = wdr_scene_stats_measure(lum, (long)w * h, st);
+    free(lum);
+    if (rc < 0)
+        return wdrctl_fail(EX_DATAERR, "%s: field 'pixels': no finite positive luminance", path);
+    fprintf(stderr, "wdrctl: scene %s: L_avg %.4g, L_max %.4g, L_min %.4g cd/m2 (%d pixels)\n", path, st->l_avg,
+            st->l_max, st->l_min, rc);
+    return EX_OK;
+}
+
 static int setup_operator(const lut_opts *o, const wdr_board *b, wdr_operator *op)
 {
     char err[512];
     wdr_scene_stats st;
     wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    if (o->scene_image && stats_from_image(o->scene_image, &st) != EX_OK)
+        return EX_DATAERR;
     st.l_avg = isnan(o->l_avg) ? st.l_avg : o->l_avg;
     st.l_max = isnan(o->l_max) ? st.l_max : o->l_max;
     st.l_min = isnan(o->l_min) ? st.l_min : o->l_min;

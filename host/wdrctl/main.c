@@ -11,7 +11,7 @@ static const wdrctl_command commands[] = {
     {"lut", "build", cmd_lut_build,
      "--operator NAME [--param key=value]... [--board FILE] -o LUT.bin [--csv FILE] [--plot FILE.png] [--json]\n"
      "            [--repair] [--timing uniform|stamped] [--entries N] [--dac-bits N] [--curve FILE.csv]\n"
-     "            [--l-avg X] [--l-max X] [--l-min X]"},
+     "            [--l-avg X] [--l-max X] [--l-min X] [--scene-image HDR]"},
     {"lut", "plots", cmd_lut_plots, "[--board FILE] [--outdir DIR]  V_ref(t) and response of every operator"},
     /* Board commands take [--device sim:/path.sock|usb[:BUS-ADDR]] (default $WDR_DEVICE),
      * [--timeout MS] [--retries N]. */
