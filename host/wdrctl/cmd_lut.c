@@ -174,8 +174,9 @@ static int setup_operator(const lut_opts *o, const wdr_board *b, wdr_operator *o
     char err[512];
     wdr_scene_stats st;
     wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
-    if (o->scene_image && stats_from_image(o->scene_image, &st) != EX_OK)
-        return EX_DATAERR;
+    int ex = o->scene_image ? stats_from_image(o->scene_image, &st) : EX_OK;
+    if (ex != EX_OK)
+        return ex;
     st.l_avg = isnan(o->l_avg) ? st.l_avg : o->l_avg;
     st.l_max = isnan(o->l_max) ? st.l_max : o->l_max;
     st.l_min = isnan(o->l_min) ? st.l_min : o->l_min;
