@@ -31,7 +31,8 @@ enum wdr_cal_model_id {
     WDR_MODEL_NONE = 0,
     WDR_MODEL_SIMPLE3 = 1,  /* paper eq. 16-20: y = a - b(x+d)/(1+c(x+d)) */
     WDR_MODEL_COMPLEX4 = 2, /* paper eq. 21-26: y = a - b x(1+e x)/(1+c x) */
-    WDR_MODEL_LSQ = 3,      /* least squares over N currents (any operator) */
+    WDR_MODEL_LSQ = 3,      /* least squares over N currents on a physical basis (any operator) */
+    WDR_MODEL_POLYMAP = 4,  /* least-squares polynomial map from pixel codes to nominal codes */
     WDR_MODEL_COUNT
 };
 

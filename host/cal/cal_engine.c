@@ -139,7 +139,7 @@ int wdr_cal_sim_capture(void *ctx, double amps, int frame_no, float *frame)
 }
 
 /* Calibration margin, at most this fraction of the integration time. */
-#define MARGIN_MAX_TIME_FRAC 0.5
+#define MARGIN_MAX_TIME_FRAC 1.0
 
 static int build_lut(const wdr_board *b, const char *op_name, double margin_v, uint8_t **bytes, size_t *len,
                      char *err, int errlen)
@@ -149,8 +149,8 @@ static int build_lut(const wdr_board *b, const char *op_name, double margin_v, u
         return rc;
     uint8_t *ext;
     size_t ext_len;
-    double added;
-    rc = wdr_cal_lut_extend(*bytes, *len, margin_v, MARGIN_MAX_TIME_FRAC, &ext, &ext_len, &added, err, errlen);
+    double added, done;
+    rc = wdr_cal_lut_extend(*bytes, *len, margin_v, MARGIN_MAX_TIME_FRAC, &ext, &ext_len, &added, &done, err, errlen);
     free(*bytes);
     *bytes = rc ? NULL : ext;
     *len = ext_len;

@@ -52,13 +52,13 @@ int wdr_cal_sim_capture(void *ctx, double amps, int frame_no, float *frame);
 int wdr_cal_sim_setup(const wdr_board *b, const char *op_name, uint64_t chip_seed, int adc_quant, double margin_v,
                       wdr_sim **sim, uint8_t **lut_bytes, char *err, int errlen);
 
-/* Continue a LUT's ramp at its final slope for margin_v volts (at most max_time_frac of its
- * integration time), so pixels with thresholds above nominal still cross at the dimmest current
- * and in the dark frame. Stamped and uniform LUTs alike get one entry per extra code.
- * *out is malloc'd; *added_s gets the extra integration time.
- * @retval WDR_OK, WDR_E_INVAL (err says why: flat end, too long, too many entries), WDR_E_NOMEM,
+/* Continue a LUT's ramp at its final slope for margin_v volts, so pixels with thresholds above
+ * nominal still cross at the dimmest current and in the dark frame. The extension stops early
+ * at max_time_frac of the integration time or the DAC's top code: *margin_done_v says how far
+ * it got, *added_s how much integration time it added. One entry per extra code.
+ * *out is malloc'd. @retval WDR_OK, WDR_E_INVAL (err says why: flat end, no room), WDR_E_NOMEM,
  *         or the LUT parser's error */
 int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double max_time_frac, uint8_t **out,
-                       size_t *out_len, double *added_s, char *err, int errlen);
+                       size_t *out_len, double *added_s, double *margin_done_v, char *err, int errlen);
 
 #endif

@@ -12,7 +12,7 @@ void wdr_cal_config_defaults(wdr_cal_config *c, int model)
     c->model = model;
     c->form = model == WDR_MODEL_SIMPLE3 ? WDR_FORM_MOEBIUS : WDR_FORM_POLY;
     c->n_coeffs = model == WDR_MODEL_SIMPLE3 ? 3 : 5;
-    c->use_dark_ref = model != WDR_MODEL_LSQ;
+    c->use_dark_ref = model == WDR_MODEL_SIMPLE3 || model == WDR_MODEL_COMPLEX4;
     c->raw_max = 4095;
     c->out_scale = 16.0f;
     c->out_max = 65535;
@@ -22,7 +22,8 @@ void wdr_cal_config_defaults(wdr_cal_config *c, int model)
     c->max_residual = 0.05;
 }
 
-/* ---- PCHIP (Fritsch-Carlson): monotone data give a monotone curve, no overshoot ---- */
+/* ---- monotone cubic Hermite curve: spline slopes where they keep it monotone, else
+ * Fritsch-Carlson (PCHIP) slopes; monotone data give a monotone curve ---- */
 
 static double pchip_end_slope(double h0, double h1, double d0, double d1)
 {
@@ -34,9 +35,56 @@ static double pchip_end_slope(double h0, double h1, double d0, double d1)
     return m;
 }
 
+/* Knot slopes of the C2 cubic spline with not-too-stiff natural ends (tridiagonal solve). */
+static void spline_slopes(const double *h, const double *d, int n, double *m)
+{
+    double diag[WDR_PCHIP_MAX], rhs[WDR_PCHIP_MAX], up[WDR_PCHIP_MAX];
+    diag[0] = 2, up[0] = 1, rhs[0] = 3 * d[0];
+    for (int k = 1; k < n - 1; k++) {
+        diag[k] = 2 * (h[k - 1] + h[k]);
+        up[k] = h[k - 1];
+        rhs[k] = 3 * (h[k] * d[k - 1] + h[k - 1] * d[k]);
+    }
+    diag[n - 1] = 2, rhs[n - 1] = 3 * d[n - 2];
+    /* row k: lower = h[k] (k < n-1) or 1 (last), diag, upper = up[k] */
+    for (int k = 1; k < n; k++) {
+        double lower = k < n - 1 ? h[k] : 1, f = lower / diag[k - 1];
+        diag[k] -= f * up[k - 1];
+        rhs[k] -= f * rhs[k - 1];
+    }
+    m[n - 1] = rhs[n - 1] / diag[n - 1];
+    for (int k = n - 2; k >= 0; k--)
+        m[k] = (rhs[k] - up[k] * m[k + 1]) / diag[k];
+}
+
+/* Fritsch-Carlson: a segment stays monotone if its end slopes keep the data's sign and
+ * alpha^2 + beta^2 <= 9; where the smooth spline breaks that, its knots fall back to the
+ * harmonic-mean slopes, which always satisfy it. */
+static int segment_monotone(double d, double m0, double m1)
+{
+    if (d == 0)
+        return m0 == 0 && m1 == 0;
+    double a = m0 / d, b = m1 / d;
+    return a >= 0 && b >= 0 && a * a + b * b <= 9;
+}
+
+static void harmonic_slopes(const double *h, const double *d, int n, double *m)
+{
+    for (int k = 1; k < n - 1; k++) {
+        if (d[k - 1] * d[k] <= 0) {
+            m[k] = 0;
+            continue;
+        }
+        double w1 = 2 * h[k] + h[k - 1], w2 = h[k] + 2 * h[k - 1];
+        m[k] = (w1 + w2) / (w1 / d[k - 1] + w2 / d[k]);
+    }
+    m[0] = pchip_end_slope(h[0], h[1], d[0], d[1]);
+    m[n - 1] = pchip_end_slope(h[n - 2], h[n - 3], d[n - 2], d[n - 3]);
+}
+
 int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n)
 {
-    double h[WDR_PCHIP_MAX], d[WDR_PCHIP_MAX];
+    double h[WDR_PCHIP_MAX], d[WDR_PCHIP_MAX], safe[WDR_PCHIP_MAX];
     if (n < 2 || n > WDR_PCHIP_MAX)
         return WDR_E_INVAL;
     p->n = n;
@@ -54,16 +102,11 @@ int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n)
         p->m[0] = p->m[1] = d[0];
         return WDR_OK;
     }
-    for (int k = 1; k < n - 1; k++) {
-        if (d[k - 1] * d[k] <= 0) {
-            p->m[k] = 0;
-            continue;
-        }
-        double w1 = 2 * h[k] + h[k - 1], w2 = h[k] + 2 * h[k - 1];
-        p->m[k] = (w1 + w2) / (w1 / d[k - 1] + w2 / d[k]);
-    }
-    p->m[0] = pchip_end_slope(h[0], h[1], d[0], d[1]);
-    p->m[n - 1] = pchip_end_slope(h[n - 2], h[n - 3], d[n - 2], d[n - 3]);
+    spline_slopes(h, d, n, p->m);
+    harmonic_slopes(h, d, n, safe);
+    for (int k = 0; k < n - 1; k++)
+        if (!segment_monotone(d[k], p->m[k], p->m[k + 1]))
+            p->m[k] = safe[k], p->m[k + 1] = safe[k + 1];
     return WDR_OK;
 }
 
@@ -112,6 +155,47 @@ double wdr_pchip_slope(const wdr_pchip *p, double lx)
            (3 * t2 - 2 * t) * p->m[k + 1];
 }
 
+/* Newton on the segment's cubic, kept inside the segment by bisection. */
+static double segment_invert(const wdr_pchip *p, int k, double y)
+{
+    double lo = p->lx[k], hi = p->lx[k + 1], dir = p->y[k + 1] > p->y[k] ? 1 : -1;
+    double lx = lo + (hi - lo) * (y - p->y[k]) / (p->y[k + 1] - p->y[k]);
+    for (int it = 0; it < 100 && hi - lo > 1e-16 * (1 + fabs(lx)); it++) {
+        double r = (wdr_pchip_eval(p, lx) - y) * dir;
+        if (fabs(r) <= 4e-16 * (1 + fabs(y)))
+            break;
+        if (r > 0)
+            hi = lx;
+        else
+            lo = lx;
+        double d = wdr_pchip_slope(p, lx) * dir, next = d > 0 ? lx - r / d : NAN;
+        lx = next >= lo && next <= hi ? next : 0.5 * (lo + hi);
+    }
+    return lx;
+}
+
+double wdr_pchip_invert(const wdr_pchip *p, double y)
+{
+    int n = p->n, dir = p->y[n - 1] > p->y[0] ? 1 : -1;
+    if ((y - p->y[0]) * dir <= 0) {
+        double s = end_secant(p, 0);
+        return s != 0 ? p->lx[0] + (y - p->y[0]) / s : p->lx[0];
+    }
+    if ((y - p->y[n - 1]) * dir >= 0) {
+        double s = end_secant(p, 1);
+        return s != 0 ? p->lx[n - 1] + (y - p->y[n - 1]) / s : p->lx[n - 1];
+    }
+    int lo = 0, hi = n - 1; /* invariant: y between y[lo] and y[hi] */
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if ((y - p->y[mid]) * dir < 0)
+            hi = mid;
+        else
+            lo = mid;
+    }
+    return segment_invert(p, lo, y);
+}
+
 /* ---- the nominal pixel ---- */
 
 double wdr_nominal_eval(const wdr_nominal *n, double x)
@@ -126,23 +210,13 @@ double wdr_nominal_eval(const wdr_nominal *n, double x)
     }
 }
 
-/* Bisection in ln x on a falling curve: safe for any monotone nominal, and 80 halvings of
- * [1e-22, 1e-2] A reach double precision. */
+/* Currents far outside any sensor's range are clamped: exp() stays finite. */
 static double invert_pchip(const wdr_pchip *p, double y)
 {
-    double lo = log(1e-22), hi = log(1e-2);
-    if (y >= wdr_pchip_eval(p, lo))
+    double lx = wdr_pchip_invert(p, y);
+    if (!(lx > log(1e-22)))
         return 0;
-    if (y <= wdr_pchip_eval(p, hi))
-        return exp(hi);
-    for (int i = 0; i < 80; i++) {
-        double mid = 0.5 * (lo + hi);
-        if (wdr_pchip_eval(p, mid) > y)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    return exp(0.5 * (lo + hi));
+    return exp(fmin(lx, log(1e-2)));
 }
 
 double wdr_nominal_invert(const wdr_nominal *n, double y)
@@ -281,6 +355,8 @@ static int levels_needed(const wdr_cal_config *cfg)
         return 3 + ref;
     case WDR_MODEL_COMPLEX4:
         return 4 + ref;
+    case WDR_MODEL_LSQ:
+        return WDR_LSQ_PARAMS + 2;
     default:
         return cfg->n_coeffs + 1;
     }
@@ -288,10 +364,26 @@ static int levels_needed(const wdr_cal_config *cfg)
 
 static int params_of(int model, int n_coeffs)
 {
-    return model == WDR_MODEL_SIMPLE3 ? 4 : model == WDR_MODEL_COMPLEX4 ? 5 : n_coeffs;
+    switch (model) {
+    case WDR_MODEL_SIMPLE3:
+        return 4;
+    case WDR_MODEL_COMPLEX4:
+        return 5;
+    case WDR_MODEL_LSQ:
+        return WDR_LSQ_PARAMS;
+    default:
+        return n_coeffs;
+    }
 }
 
-/* The LSQ map's input variable: raw codes onto [-1, 1], the same as the table header's. */
+/* LSQ: three basis weights found by QR for each trial offset; the offset by a 1-D search over
+ * this fraction of the nominal swing either side of the pixel's bright-end deviation. */
+#define LSQ_LINEAR 3
+#define LSQ_SEARCH_FRAC 0.03
+
+static int is_curve_model(int model) { return model == WDR_MODEL_LSQ || model == WDR_MODEL_POLYMAP; }
+
+/* The POLYMAP map's input variable: raw codes onto [-1, 1], the same as the table header's. */
 static double lsq_u(const wdr_cal_result *res, double y) { return 2 * y / res->cfg.raw_max - 1; }
 
 static double poly_eval(const double *c, int n, double u)
@@ -318,9 +410,9 @@ static int fit_paper_pixel(const wdr_cal_result *res, const double *u, const dou
     return st;
 }
 
-/* LSQ: the polynomial map from this pixel's codes to the nominal codes at the same currents,
+/* POLYMAP: the polynomial map from this pixel's codes to the nominal codes at the same currents,
  * weighted so each residual is in units of ln x (i.e. relative current, the contrast error). */
-static int fit_lsq_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w,
+static int fit_polymap_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w,
                          int n, double *par)
 {
     int nc = res->n_params;
@@ -352,6 +444,120 @@ static int fit_lsq_pixel(const wdr_cal_result *res, const double *y, const doubl
     return WDR_FIT_OK;
 }
 
+/* The LSQ basis at offset-free code z (see cal_fit.h), in units of x_scale. I'/D is C / t(z),
+ * one over the ramp time at that level. Darker than the lowest calibration level the nominal
+ * response is linear in x, y = y_top - b0 x, so I'/D stays 1/b0 there, and I' = D / b0 goes on
+ * smoothly past y_top (negative), where pixels with a high reset level still answer. */
+static void lsq_basis(const wdr_cal_result *res, double z, double *phi)
+{
+    const wdr_nominal *n = &res->nominal;
+    double x_lo = n->x_lo / res->x_scale, d = n->y_top - z, d_lo = n->y_top - n->curve.y[0];
+    if (z >= n->curve.y[0]) {
+        phi[0] = d * x_lo / d_lo;
+        phi[1] = x_lo / d_lo;
+    } else {
+        double lx = wdr_pchip_invert(&n->curve, z);
+        phi[0] = exp(fmin(lx, log(1e-2))) / res->x_scale;
+        phi[1] = phi[0] / d;
+    }
+    phi[2] = 1;
+}
+
+/* theta: k1, k2, k3 of the basis, then the source-follower offset o (codes). */
+static double lsq_recover_u(const wdr_cal_result *res, const double *theta, double y)
+{
+    double phi[LSQ_LINEAR];
+    lsq_basis(res, y - theta[LSQ_LINEAR], phi);
+    return theta[0] * phi[0] + theta[1] * phi[1] + theta[2] * phi[2];
+}
+
+/* For a given offset the model is linear: solve it by QR and return the rms relative residual. */
+static double lsq_solve_at(const wdr_cal_result *res, const double *y, const double *u, int n, double o,
+                           double *theta)
+{
+    double a[WDR_CAL_MAX_LEVELS * LSQ_LINEAR], t[WDR_CAL_MAX_LEVELS], w[WDR_CAL_MAX_LEVELS] = {0}, rcond;
+    for (int k = 0; k < n; k++) {
+        lsq_basis(res, y[k] - o, a + k * LSQ_LINEAR);
+        t[k] = u[k];
+        w[k] = 1 / u[k]; /* relative residual: the contrast error */
+    }
+    if (wdr_lsq_solve(a, t, w, n, LSQ_LINEAR, theta, &rcond))
+        return INFINITY;
+    theta[LSQ_LINEAR] = o;
+    double ss = 0;
+    for (int k = 0; k < n; k++) {
+        double r = lsq_recover_u(res, theta, y[k]) / u[k] - 1;
+        ss += r * r;
+    }
+    return isfinite(ss) ? sqrt(ss / n) : INFINITY;
+}
+
+/* Variable projection over the one nonlinear parameter: a coarse scan of the offset around the
+ * pixel's deviation at the brightest level, then golden-section refinement of the best bracket. */
+static double lsq_search_offset(const wdr_cal_result *res, const double *y, const double *u, int n,
+                                const double *med, double *theta)
+{
+    double o0 = y[n - 1] - med[n - 1], w = LSQ_SEARCH_FRAC * (med[0] - med[n - 1]), step = w / 16;
+    double best = o0, best_r = INFINITY, tmp[WDR_LSQ_PARAMS];
+    for (int s = -16; s <= 16; s++) {
+        double r = lsq_solve_at(res, y, u, n, o0 + s * step, tmp);
+        if (r < best_r)
+            best_r = r, best = o0 + s * step;
+    }
+    const double g = 0.3819660112501051;
+    double lo = best - step, hi = best + step, m1 = lo + g * (hi - lo), m2 = hi - g * (hi - lo);
+    double r1 = lsq_solve_at(res, y, u, n, m1, tmp), r2 = lsq_solve_at(res, y, u, n, m2, tmp);
+    for (int it = 0; it < 40; it++) {
+        if (r1 < r2)
+            hi = m2, m2 = m1, r2 = r1, m1 = lo + g * (hi - lo), r1 = lsq_solve_at(res, y, u, n, m1, tmp);
+        else
+            lo = m1, m1 = m2, r1 = r2, m2 = hi - g * (hi - lo), r2 = lsq_solve_at(res, y, u, n, m2, tmp);
+    }
+    double o = r1 < r2 ? m1 : m2;
+    double r = lsq_solve_at(res, y, u, n, o, theta);
+    if (!(r <= best_r))
+        r = lsq_solve_at(res, y, u, n, best, theta);
+    return r;
+}
+
+static int fit_lsq_pixel(const wdr_cal_result *res, const double *y, const double *u, int n, const double *med,
+                         double *theta)
+{
+    double r = lsq_search_offset(res, y, u, n, med, theta);
+    if (!isfinite(r))
+        return WDR_FIT_ILL_COND;
+    if (!(r <= res->cfg.max_residual))
+        return WDR_FIT_RESIDUAL;
+    /* recovered current must rise as the code falls across the calibrated span */
+    double prev = -INFINITY;
+    for (int s = 0; s <= 32; s++) {
+        double x = lsq_recover_u(res, theta, y[0] + (y[n - 1] - y[0]) * s / 32.0);
+        if (!(x > prev))
+            return WDR_FIT_REVERSED;
+        prev = x;
+    }
+    return WDR_FIT_OK;
+}
+
+/* Nominal dark level: the dark frame's median if it lies above the curve, else the curve
+ * continued two decades below the lowest current. */
+static double dark_top(const wdr_cal_levels *lv, const wdr_cal_result *res, const double *med)
+{
+    double far = wdr_pchip_eval(&res->nominal.curve, log(lv->amps[0]) - log(100));
+    if (!lv->dark)
+        return far;
+    long np = (long)lv->width * lv->height, m = 0;
+    float *good = malloc(sizeof(float) * 2 * (size_t)np);
+    if (!good)
+        return far;
+    for (long i = 0; i < np; i++)
+        if (!res->flags[i])
+            good[m++] = lv->dark[i];
+    double top = m ? median_of(good, m, good + np) : far;
+    free(good);
+    return top > med[0] + 1e-6 * (med[0] - med[lv->n - 1]) ? top : far;
+}
+
 static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const double *med, char *err, int errlen)
 {
     wdr_nominal *n = &res->nominal;
@@ -364,9 +570,13 @@ static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const doub
         lx[k] = log(fmax(lv->amps[k], 1e-30));
     }
     int st = WDR_FIT_OK;
-    if (res->model == WDR_MODEL_LSQ)
+    if (is_curve_model(res->model)) {
         st = wdr_pchip_init(&n->curve, lx, med, lv->n) ? WDR_FIT_REVERSED : WDR_FIT_OK;
-    else
+        for (int k = 1; !st && k < lv->n; k++)
+            if (!(med[k] < med[k - 1]))
+                st = WDR_FIT_REVERSED; /* the nominal must fall strictly to have an inverse */
+        n->y_top = !st ? dark_top(lv, res, med) : 0;
+    } else
         st = fit_paper_pixel(res, u, med, par);
     n->s3 = (wdr_simple3){par[0], par[1], par[2], par[3], res->x_scale};
     n->c4 = (wdr_complex4){par[0], par[1], par[2], par[3], par[4], res->x_scale, 0};
@@ -382,9 +592,9 @@ static int check_levels(const wdr_cal_levels *lv, const wdr_cal_config *cfg, cha
         snprintf(err, (size_t)errlen, "unknown calibration model %d", cfg->model);
         return WDR_E_INVAL;
     }
-    if (cfg->model == WDR_MODEL_LSQ ? lv->n < need : lv->n != need) {
+    if (is_curve_model(cfg->model) ? lv->n < need : lv->n != need) {
         snprintf(err, (size_t)errlen, "model needs %s%d calibration levels, got %d",
-                 cfg->model == WDR_MODEL_LSQ ? "at least " : "", need, lv->n);
+                 is_curve_model(cfg->model) ? "at least " : "", need, lv->n);
         return WDR_E_INVAL;
     }
     if (lv->n > WDR_PCHIP_MAX || cfg->n_coeffs < 2 || cfg->n_coeffs > (int)WDR_CAL_MAX_COEFFS) {
@@ -450,8 +660,13 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
             continue;
         for (int k = 0; k < lv->n; k++)
             y[k] = lv->frames[(long)k * np + i];
-        int st = res->model == WDR_MODEL_LSQ ? fit_lsq_pixel(res, y, med, w, lv->n, par)
-                                             : fit_paper_pixel(res, u, y, par);
+        int st;
+        if (res->model == WDR_MODEL_LSQ)
+            st = fit_lsq_pixel(res, y, u, lv->n, med, par);
+        else if (res->model == WDR_MODEL_POLYMAP)
+            st = fit_polymap_pixel(res, y, med, w, lv->n, par);
+        else
+            st = fit_paper_pixel(res, u, y, par);
         if (st) {
             res->status[i] = (uint8_t)st;
             res->flags[i] |= WDR_PIX_UNFIT;
@@ -527,6 +742,9 @@ double wdr_cal_recover(const wdr_cal_result *res, long i, double y, int *status)
     } else if (res->model == WDR_MODEL_COMPLEX4) {
         wdr_complex4 m = {p[0], p[1], p[2], p[3], p[4], res->x_scale, 0};
         *status = wdr_complex4_invert(&m, y, cap, &u, &clamped);
+    } else if (res->model == WDR_MODEL_LSQ) {
+        u = lsq_recover_u(res, p, y);
+        return isfinite(u) ? u * res->x_scale : 0;
     } else {
         return wdr_nominal_invert(&res->nominal, poly_eval(p, res->n_params, lsq_u(res, y)));
     }
@@ -538,7 +756,7 @@ double wdr_cal_recover(const wdr_cal_result *res, long i, double y, int *status)
 double wdr_cal_map(const wdr_cal_result *res, long i, double y)
 {
     int st;
-    if (res->model == WDR_MODEL_LSQ)
+    if (res->model == WDR_MODEL_POLYMAP)
         return poly_eval(res->params + i * res->n_params, res->n_params, lsq_u(res, y));
     return wdr_nominal_eval(&res->nominal, wdr_cal_recover(res, i, y, &st));
 }

@@ -27,11 +27,12 @@ typedef struct wdr_pchip {
 
 /* The nominal pixel: what a corrected pixel reports for current x. */
 typedef struct wdr_nominal {
-    int model; /* enum wdr_cal_model_id: SIMPLE3 and COMPLEX4 use their model, LSQ the PCHIP */
+    int model; /* enum wdr_cal_model_id: SIMPLE3 and COMPLEX4 use their model, LSQ/POLYMAP the PCHIP */
     wdr_simple3 s3;
     wdr_complex4 c4;
     wdr_pchip curve;
     double x_lo, x_hi; /* calibrated range (A) */
+    double y_top;      /* LSQ: the nominal dark level (dark-frame median, or the curve far below x_lo) */
 } wdr_nominal;
 
 double wdr_nominal_eval(const wdr_nominal *n, double x);
@@ -43,13 +44,13 @@ double wdr_nominal_log_slope(const wdr_nominal *n, double x);
 typedef struct wdr_cal_config {
     int model;          /* enum wdr_cal_model_id */
     int form;           /* enum wdr_cal_form of the table */
-    int n_coeffs;       /* POLY: coefficients (degree + 1); LSQ fits this directly */
+    int n_coeffs;       /* POLY table: coefficients (degree + 1); POLYMAP fits this many directly */
     int use_dark_ref;   /* SIMPLE3/COMPLEX4: level 0 is the dark-end reference for d (eq. 20) */
     double raw_max;     /* largest raw code */
     float out_scale;    /* output code per raw code unit */
     uint16_t out_max;
     double stuck_frac, dead_frac, hot_frac; /* bad-pixel thresholds (see cal_fit.c) */
-    double max_residual;/* LSQ: largest weighted rms residual (ln x units) before UNFIT */
+    double max_residual;/* LSQ/POLYMAP: largest rms relative residual at the calibration currents */
 } wdr_cal_config;
 
 void wdr_cal_config_defaults(wdr_cal_config *c, int model);
@@ -61,7 +62,7 @@ typedef struct wdr_cal_result {
     wdr_nominal nominal;
     double x_scale;
     int n_params;
-    double *params;   /* n_params per pixel: model parameters or LSQ coefficients */
+    double *params;   /* n_params per pixel: model parameters, LSQ basis weights or POLYMAP coefficients */
     uint8_t *flags;   /* WDR_PIX_* per pixel */
     uint8_t *status;  /* enum wdr_fit_status per pixel (UNFIT reason) */
     long n_flag[8];   /* pixels per flag bit */
@@ -74,7 +75,15 @@ typedef struct wdr_cal_result {
 void wdr_cal_detect_bad(const wdr_cal_levels *lv, const wdr_cal_config *cfg, uint8_t *flags, int *saturated_levels);
 
 /* Fit every pixel. levels: SIMPLE3 needs 3 (+1 dark-end reference first with use_dark_ref),
- * COMPLEX4 4 (+1), LSQ at least n_coeffs + 1.
+ * COMPLEX4 4 (+1), LSQ at least WDR_LSQ_PARAMS + 2, POLYMAP at least n_coeffs + 1.
+ *
+ * LSQ is least squares on a basis that follows from the pixel physics. A pixel whose photodiode
+ * capacitance, reset level, M2 threshold, dark current and source-follower offset differ from
+ * nominal recovers x = k1 I'(y - o) + k2 I'(y - o) / D(y - o) + k3, where I'(z) is the nominal
+ * inverse (PCHIP of the array median), D(z) = y_top - z the nominal swing from dark through which
+ * the reset and threshold offsets act, k3 the dark current and o the source-follower offset.
+ * k1..k3 are linear (QR) for a given o; o is found by a 1-D search (variable projection).
+ * Residuals are relative, so the fit minimises the contrast error itself.
  * @retval WDR_OK
  * @retval WDR_E_INVAL   wrong level count, levels not rising, bad config (err says which)
  * @retval WDR_E_NUMERIC the nominal curve itself cannot be fitted (err names the reason)
@@ -97,9 +106,13 @@ double wdr_cal_map(const wdr_cal_result *res, long i, double y);
 int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int operator_id, uint8_t **out,
                         size_t *out_len, char *err, int errlen);
 
+#define WDR_LSQ_PARAMS 4
+
 /* Monotone interpolation helpers (exposed for tests). */
 int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n);
 double wdr_pchip_eval(const wdr_pchip *p, double lx);
 double wdr_pchip_slope(const wdr_pchip *p, double lx);
+/* ln x where the curve reaches y (linear beyond the ends; the curve must be strictly monotone). */
+double wdr_pchip_invert(const wdr_pchip *p, double y);
 
 #endif

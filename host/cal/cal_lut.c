@@ -25,27 +25,39 @@ static double final_slope(const wdr_lut_view *lut, uint32_t *t_last, uint16_t *c
     return *t_last > t0 && *c_last > c0 ? (double)(*c_last - c0) / (double)(*t_last - t0) : 0;
 }
 
+/* Codes the extension may add: the margin, capped by the DAC's top code and the time budget. */
+static uint32_t extension_codes(const wdr_lut_view *lut, uint16_t c_last, uint32_t t_last, double step,
+                                double margin_v, double max_time_frac)
+{
+    uint32_t max_code = (1u << lut->h.dac_bits) - 1u;
+    double lsb = (lut->h.dac_hi_v - lut->h.dac_lo_v) / max_code;
+    double want = ceil(margin_v / lsb), by_time = floor(max_time_frac * t_last / step);
+    double extra = fmin(fmin(want, by_time), (double)(max_code - c_last));
+    extra = fmin(extra, (double)(WDR_LUT_MAX_ENTRIES - lut->h.entry_count));
+    return extra > 0 ? (uint32_t)extra : 0;
+}
+
 int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double max_time_frac, uint8_t **out,
-                       size_t *out_len, double *added_s, char *err, int errlen)
+                       size_t *out_len, double *added_s, double *margin_done_v, char *err, int errlen)
 {
     wdr_lut_view lut;
+    *out = NULL;
     int rc = wdr_lut_parse(in, in_len, &lut);
     if (rc) {
         snprintf(err, (size_t)errlen, "LUT does not parse: %s", wdr_strerror(rc));
         return rc;
     }
-    uint32_t t_last, n = lut.h.entry_count, max_code = (1u << lut.h.dac_bits) - 1u;
+    uint32_t t_last, n = lut.h.entry_count;
     uint16_t c_last;
-    double slope = final_slope(&lut, &t_last, &c_last), lsb = (lut.h.dac_hi_v - lut.h.dac_lo_v) / max_code;
-    uint32_t extra = (uint32_t)ceil(margin_v / lsb);
-    if (c_last + extra > max_code)
-        extra = max_code - c_last;
+    double slope = final_slope(&lut, &t_last, &c_last);
     double step = slope > 0 ? 1 / slope : 0; /* ticks per code */
-    if (!(margin_v >= 0) || !(step > 0) || extra * step > max_time_frac * t_last || n + extra > WDR_LUT_MAX_ENTRIES) {
-        snprintf(err, (size_t)errlen, "cannot extend the ramp by %.1f mV: final slope %.3g codes/tick, %u entries, "
-                 "limit %.0f %% of the integration time", margin_v * 1e3, slope, n, max_time_frac * 100);
+    uint32_t extra = step > 0 && margin_v > 0 ? extension_codes(&lut, c_last, t_last, step, margin_v, max_time_frac) : 0;
+    if (extra == 0) {
+        snprintf(err, (size_t)errlen, "cannot extend the ramp by %.1f mV: final slope %.3g codes/tick, last code %u, "
+                 "time limit %.0f %% of %u ticks", margin_v * 1e3, slope, c_last, max_time_frac * 100, t_last);
         return WDR_E_INVAL;
     }
+    *margin_done_v = extra * (lut.h.dac_hi_v - lut.h.dac_lo_v) / ((1u << lut.h.dac_bits) - 1u);
     uint32_t *t = malloc(sizeof(uint32_t) * (n + extra));
     uint16_t *c = malloc(sizeof(uint16_t) * (n + extra));
     *out_len = wdr_lut_size(n + extra);

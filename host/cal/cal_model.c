@@ -276,34 +276,19 @@ int wdr_simple3_invert(const wdr_simple3 *m, double y, double u_cap, double *u)
     return WDR_FIT_OK;
 }
 
-/* Fixed point on d: the dark reference pins the curve near zero current, the three currents
- * pin its shape; d is small against every calibration current so this settles in a few rounds. */
+/* The paper's eq. 20, with the dark reference allowed at a current u0 >= 0: the Moebius family
+ * is closed under shifts of u, so d cannot be fitted together with a, b, c; the paper takes
+ * a, b, c from the three currents and then d as the shift that puts the dark reading at u0. */
 int wdr_simple3_fit_dark(const double u[3], const double y[3], double u0, double y0, wdr_simple3 *m)
 {
-    double d = 0, ud[3];
     int st = wdr_simple3_fit3(u, y, m);
-    for (int it = 0; !st && it < 20; it++) {
-        double t0;
-        if (!isfinite(y0) || y0 <= y[0] || wdr_simple3_invert(m, y0, 1e6, &t0))
-            return WDR_FIT_REVERSED; /* the dark reference is not darker than the first current */
-        double d_new = t0 + m->d - u0;
-        if (!isfinite(d_new) || d_new <= -u[0])
-            return WDR_FIT_ILL_COND;
-        int done = fabs(d_new - d) <= 1e-12 * (fabs(d) + u[0]);
-        d = d_new;
-        for (int i = 0; i < 3; i++)
-            ud[i] = u[i] + d;
-        wdr_simple3 next;
-        st = wdr_simple3_fit3(ud, y, &next);
-        if (!st) {
-            next.d = d;
-            next.x_scale = m->x_scale;
-            *m = next;
-        }
-        if (done)
-            break;
-    }
-    return st;
+    if (st)
+        return st;
+    double t0;
+    if (!isfinite(y0) || y0 <= y[0] || wdr_simple3_invert(m, y0, 1e6, &t0))
+        return WDR_FIT_REVERSED; /* the dark reference is not darker than the first current */
+    m->d = t0 - u0;
+    return isfinite(m->d) && m->d > -u[0] ? WDR_FIT_OK : WDR_FIT_ILL_COND;
 }
 
 /* ---- 4-parameter model ---- */
@@ -341,14 +326,40 @@ double wdr_complex4_eval(const wdr_complex4 *m, double u)
     return (m->p + m->q * t - m->r * t * t) / (1 + m->s * t);
 }
 
+/* The two roots are C/q and q/R. Along a falling response the current rises, and which formula
+ * gives it depends on the sign of S y - Q, which flips where a burning-out response (R > 0) passes
+ * the Reinhard asymptote. The physical root is the smallest non-negative one (continuous with the
+ * linear -C/B at low light); darker than dark, the one nearest zero. */
+static double physical_root(double r, double q, double c)
+{
+    double t1 = c / q, t2 = r != 0 ? q / r : t1;
+    if (!isfinite(t2))
+        return t1;
+    double lo = fmin(t1, t2), hi = fmax(t1, t2);
+    return lo >= 0 ? lo : hi >= 0 ? hi : hi;
+}
+
 int wdr_complex4_invert(const wdr_complex4 *m, double y, double u_cap, double *u, int *clamped)
 {
-    double t;
     /* R t^2 + (S y - Q) t + (y - P) = 0 */
-    int st = wdr_quadratic_root(m->r, m->s * y - m->q, y - m->p, &t, clamped);
-    if (st || t - m->d > u_cap) {
-        *u = st ? 0 : u_cap;
-        return st ? st : WDR_FIT_POLE;
+    double b = m->s * y - m->q, c = y - m->p, disc = b * b - 4 * m->r * c;
+    *clamped = 0;
+    *u = 0;
+    if (!isfinite(disc))
+        return WDR_FIT_NONFINITE;
+    if (disc < 0) {
+        disc = 0;
+        *clamped = 1;
+    }
+    double q = -0.5 * (b + copysign(sqrt(disc), b));
+    if (q == 0)
+        return WDR_FIT_FLAT;
+    double t = physical_root(m->r, q, c);
+    if (!isfinite(t))
+        return WDR_FIT_NONFINITE;
+    if (t - m->d > u_cap) {
+        *u = u_cap;
+        return WDR_FIT_POLE;
     }
     *u = t - m->d;
     return WDR_FIT_OK;
@@ -356,29 +367,12 @@ int wdr_complex4_invert(const wdr_complex4 *m, double y, double u_cap, double *u
 
 int wdr_complex4_fit_dark(const double u[4], const double y[4], double u0, double y0, wdr_complex4 *m)
 {
-    double d = 0, ud[4];
-    int st = wdr_complex4_fit4(u, y, m);
-    for (int it = 0; !st && it < 20; it++) {
-        double t0;
-        int clamped;
-        if (!isfinite(y0) || y0 <= y[0] || wdr_complex4_invert(m, y0, 1e6, &t0, &clamped) || clamped)
-            return WDR_FIT_REVERSED;
-        double d_new = t0 + m->d - u0;
-        if (!isfinite(d_new) || d_new <= -u[0])
-            return WDR_FIT_ILL_COND;
-        int done = fabs(d_new - d) <= 1e-12 * (fabs(d) + u[0]);
-        d = d_new;
-        for (int i = 0; i < 4; i++)
-            ud[i] = u[i] + d;
-        wdr_complex4 next;
-        next.x_scale = m->x_scale;
-        st = wdr_complex4_fit4(ud, y, &next);
-        if (!st) {
-            next.d = d;
-            *m = next;
-        }
-        if (done)
-            break;
-    }
-    return st;
+    int st = wdr_complex4_fit4(u, y, m), clamped;
+    if (st)
+        return st;
+    double t0;
+    if (!isfinite(y0) || y0 <= y[0] || wdr_complex4_invert(m, y0, 1e6, &t0, &clamped) || clamped)
+        return WDR_FIT_REVERSED;
+    m->d = t0 - u0;
+    return isfinite(m->d) && m->d > -u[0] ? WDR_FIT_OK : WDR_FIT_ILL_COND;
 }

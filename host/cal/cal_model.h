@@ -51,8 +51,10 @@ typedef struct wdr_simple3 {
 int wdr_simple3_fit3(const double u[3], const double y[3], wdr_simple3 *m);
 
 /* The paper's dark parameter (eq. 20), generalised to a dark-end reference at u0 >= 0:
- * d = u(y0) - u0 from the model's inverse. Fits a,b,c on u_i + d and refits until d settles.
- * @retval WDR_FIT_OK or a failure status (m keeps the last good fit with d = 0) */
+ * a, b, c from the three currents (eq. 19), then d = u(y0) - u0 so that the inverse (eq. 26)
+ * maps the dark reading to u0. (The Moebius family is closed under shifts of u: d is not
+ * identifiable together with a, b, c, so it is an offset of the current scale, as in the paper.)
+ * @retval WDR_FIT_OK or a failure status */
 int wdr_simple3_fit_dark(const double u[3], const double y[3], double u0, double y0, wdr_simple3 *m);
 
 double wdr_simple3_eval(const wdr_simple3 *m, double u);
@@ -72,11 +74,12 @@ typedef struct wdr_complex4 {
 /* Solve eq. 24 for four points (pivoted LU on equilibrated columns, never an inverse).
  * @retval WDR_FIT_OK, WDR_FIT_ILL_COND, WDR_FIT_CLOSE_CURRENTS, WDR_FIT_NONFINITE */
 int wdr_complex4_fit4(const double u[4], const double y[4], wdr_complex4 *m);
-/* Same with a dark-end reference (u0, y0) giving d as for the 3-parameter model. */
+/* Same with a dark-end reference (u0, y0) giving d as for the 3-parameter model (eq. 21). */
 int wdr_complex4_fit_dark(const double u[4], const double y[4], double u0, double y0, wdr_complex4 *m);
 double wdr_complex4_eval(const wdr_complex4 *m, double u);
-/* Inverse (eq. 26, second line) on the physical branch, cancellation-free; a negative
- * discriminant is clamped and reported in *clamped. @retval WDR_FIT_OK, WDR_FIT_FLAT */
+/* Inverse (eq. 26, second line) on the physical branch, cancellation-free (roots C/q and q/R
+ * with q = -(B + sign(B) sqrt(disc))/2); a negative discriminant is clamped to zero and reported
+ * in *clamped. @retval WDR_FIT_OK, WDR_FIT_FLAT, WDR_FIT_POLE (*u = u_cap), WDR_FIT_NONFINITE */
 int wdr_complex4_invert(const wdr_complex4 *m, double y, double u_cap, double *u, int *clamped);
 
 #endif

@@ -39,10 +39,28 @@ static int moebius_coeffs(const wdr_cal_result *res, long i, double *c)
     return finite_as_float(c, 3) && 1 + c[2] * res->cfg.raw_max >= MIN_DENOM;
 }
 
+/* LSQ models the inverse only: find the code whose recovered current is x by bisection
+ * (recovery falls monotonically with the code over the pixel's span, which the fit checked). */
+static double code_for_current(const wdr_cal_result *res, long i, double x)
+{
+    double lo = 0, hi = res->cfg.raw_max;
+    int st;
+    for (int it = 0; it < 48; it++) {
+        double mid = 0.5 * (lo + hi);
+        if (wdr_cal_recover(res, i, mid, &st) > x)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
 /* Pixel response at current x from its fitted model (the table's input side). */
 static double pixel_response(const wdr_cal_result *res, long i, double x)
 {
     const double *p = res->params + i * res->n_params;
+    if (res->model == WDR_MODEL_LSQ)
+        return code_for_current(res, i, x);
     if (res->model == WDR_MODEL_SIMPLE3) {
         wdr_simple3 m = {p[0], p[1], p[2], p[3], res->x_scale};
         return wdr_simple3_eval(&m, x / res->x_scale);
@@ -62,7 +80,7 @@ static int poly_coeffs(const wdr_cal_result *res, long i, int nc, double *c)
         double y = pixel_response(res, i, x), u = 2 * y / res->cfg.raw_max - 1, pw = 1;
         for (int j = 0; j < nc; j++, pw *= u)
             a[k * nc + j] = pw;
-        t[k] = wdr_nominal_eval(&res->nominal, x);
+        t[k] = wdr_cal_map(res, i, y);
         w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, x), 1e-9);
     }
     if (wdr_lsq_solve(a, t, w, MAP_SAMPLES, nc, c, &rcond))
@@ -86,7 +104,7 @@ static int pixel_coeffs(const wdr_cal_result *res, long i, int form, int nc, dou
         return 0;
     if (form == WDR_FORM_MOEBIUS)
         return res->model == WDR_MODEL_SIMPLE3 && moebius_coeffs(res, i, c);
-    if (res->model == WDR_MODEL_LSQ) {
+    if (res->model == WDR_MODEL_POLYMAP) {
         if (nc != res->n_params)
             return 0;
         memcpy(c, res->params + i * res->n_params, sizeof(double) * (size_t)nc);
@@ -107,8 +125,8 @@ static int check_form(const wdr_cal_result *res, char *err, int errlen)
         snprintf(err, (size_t)errlen, "the Moebius table form is exact only for the 3-parameter model");
         return WDR_E_INVAL;
     }
-    if (res->model == WDR_MODEL_LSQ && nc != res->n_params) {
-        snprintf(err, (size_t)errlen, "LSQ fitted %d coefficients, table asks for %d", res->n_params, nc);
+    if (res->model == WDR_MODEL_POLYMAP && nc != res->n_params) {
+        snprintf(err, (size_t)errlen, "POLYMAP fitted %d coefficients, table asks for %d", res->n_params, nc);
         return WDR_E_INVAL;
     }
     if (!(cfg->out_scale > 0) || cfg->raw_max < 1 || res->width > (int)WDR_CAL_MAX_WIDTH) {
