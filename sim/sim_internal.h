@@ -29,10 +29,11 @@ typedef struct sim_ramp_table {
     double q0_nom;
     uint32_t guess_base;   /* float bits >> SIM_GUESS_SHIFT of the lowest bucket */
     int n_guess;
-    int32_t *guess;        /* first node crossed by a nominal pixel at the bucket's lower edge */
+    uint16_t *guess;       /* first node crossed by a nominal pixel at the bucket's lower edge */
 } sim_ramp_table;
 
-#define SIM_GUESS_SHIFT 13 /* 1024 buckets per octave of current */
+#define SIM_GUESS_SHIFT 14 /* 512 buckets per octave of current: a 12-bit ramp has ~100 steps per octave */
+#define SIM_MAX_NODES 65535 /* guess entries are 16-bit */
 
 /* Per-pixel fixed pattern, float arrays of width*height. Charges are in the nominal
  * device's units (true charge / C_PD scale), so the search compares like with like. */

@@ -5,7 +5,8 @@
 #include <math.h>
 #include <string.h>
 
-#define WALK_MAX 24 /* past this many single steps, a guess was poor: finish by bisection */
+#define WALK_MAX 24
+#define JUMP_LINEAR_MAX_V 4e-3 /* below this DAC step, the jump level is linear in the charge terms */ /* past this many single steps, a guess was poor: finish by bisection */
 
 /* g <= 0: the pixel has crossed by node nd (its node voltage reached M2's turn-off level). */
 static inline double crossing_g(const sim_node *nd, const sim_px *p)
@@ -68,11 +69,14 @@ static inline int refine_guess(const sim_ramp_table *tab, const sim_px *p, int k
 /* First crossed node, from a guess k. */
 static inline int settle(const sim_ramp_table *tab, const sim_px *p, int k)
 {
-    /* the usual case, tested without a loop: node k crossed, node k-1 not */
-    int before = k > 0 ? k - 1 : 0;
-    double g_k = crossing_g(&tab->node[k], p), g_before = crossing_g(&tab->node[before], p);
-    if (__builtin_expect(g_k <= 0 && (k == 0 || g_before > 0), 1))
-        return k;
+    /* The usual cases, tested without a loop: the first crossed node is k or k-1 (k-2 not
+     * crossed). The condition falls with the node index, so the flags are ordered. */
+    int k1 = k > 0 ? k - 1 : 0, k2 = k > 1 ? k - 2 : 0;
+    int c0 = crossing_g(&tab->node[k], p) <= 0;
+    int c1 = k > 0 && crossing_g(&tab->node[k1], p) <= 0;
+    int c2 = k > 1 && crossing_g(&tab->node[k2], p) <= 0;
+    if (__builtin_expect(c0 && !c2, 1))
+        return k - c1;
     return walk_first(tab, p, k);
 }
 
@@ -90,7 +94,7 @@ static inline double round_half_up(double x)
 static double jump_level(const sim_ramp_table *tab, const sim_px *p, const sim_node *pv, double g_prev,
                          double g_start, double v_next)
 {
-    if (v_next - pv->v <= 4e-3)
+    if (v_next - pv->v <= JUMP_LINEAR_MAX_V)
         return pv->v + g_prev / (g_prev - g_start) * (v_next - pv->v);
     const wdr_pixel_dev *d = tab->dev;
     double v_n = wdr_pixel_voltage(d, tab->q0_nom + p->e0 - p->ie * pv->t) - p->d;
@@ -124,16 +128,21 @@ static inline void hold_at(const sim_ramp_table *tab, const sim_px *p, int k, in
         return;
     }
     double g_start = gk + p->ie * (nd->t - pv->t); /* the condition as the step began */
-    if (g_start <= 0) {
-        /* the node was already below this step's turn-off level when V_ref jumped: M2 let G
-         * rise only until it turned off, to h^-1(V_N) of this pixel */
-        *v_hold = jump_level(tab, p, pv, crossing_g(pv, p), g_start, nd->v);
+    double gp = crossing_g(pv, p), dv = nd->v - pv->v;
+    if (dv > JUMP_LINEAR_MAX_V && g_start <= 0) {
+        *v_hold = jump_level(tab, p, pv, gp, g_start, nd->v);
         *t_cross = pv->t;
         return;
     }
-    /* within the step: M2 turned off when the collected charge reached the step's threshold */
-    *v_hold = nd->v;
-    *t_cross = need_t && p->ie > 0 ? clampd((gk + p->ie * nd->t) / p->ie, pv->t, nd->t) : nd->t;
+    /* Either the node was already below this step's turn-off level when V_ref jumped (M2 let
+     * G rise only until it turned off, between the two codes), or M2 turned off within the
+     * step when the collected charge reached its threshold. Chosen without a branch: which
+     * one happens is as good as random from pixel to pixel. */
+    int jumped = g_start <= 0;
+    double f = gp / (gp - (g_start < 0 ? g_start : 0.0)); /* gp > 0: node k-1 was not crossed */
+    double t_within = need_t && p->ie > 0 ? clampd((gk + p->ie * nd->t) / p->ie, pv->t, nd->t) : nd->t;
+    *v_hold = jumped ? pv->v + f * dv : nd->v;
+    *t_cross = jumped ? pv->t : t_within;
 }
 
 void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, int need_t, double *v_hold, double *t_cross)

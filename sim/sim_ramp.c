@@ -8,7 +8,7 @@
 #include <string.h>
 
 #define CONTINUOUS_MIN_NODES 8192
-#define CONTINUOUS_MAX_NODES 65536
+#define CONTINUOUS_MAX_NODES 60000
 #define GUESS_MAX_BUCKETS (1 << 18)
 
 static uint32_t float_bits(float f)
@@ -49,7 +49,7 @@ static int fill_node(const wdr_sim *s, sim_node *nd, double t, double v)
 /* g < 0: a nominal pixel with current amps has crossed by node k. Falls with k on a rising ramp. */
 static double nominal_g(const sim_node *nd, double amps) { return nd->a - amps * nd->t; }
 
-static int32_t first_crossed_nominal(const sim_ramp_table *tab, double amps)
+static uint16_t first_crossed_nominal(const sim_ramp_table *tab, double amps)
 {
     int lo = 0, hi = tab->n - 1;
     while (lo < hi) {
@@ -59,7 +59,7 @@ static int32_t first_crossed_nominal(const sim_ramp_table *tab, double amps)
         else
             lo = mid + 1;
     }
-    return lo;
+    return (uint16_t)lo;
 }
 
 /* Span of currents whose crossing falls inside the ramp: a_k / t_k over the nodes. */
@@ -139,7 +139,7 @@ int sim_table_from_lut(const wdr_sim *s, const wdr_lut_view *lut, sim_ramp_table
 {
     memset(out, 0, sizeof *out);
     int n = count_steps(lut);
-    if (n <= 0)
+    if (n <= 0 || n > SIM_MAX_NODES)
         return WDR_E_INVAL;
     double tick = lut->h.tick_ps * 1e-12;
     out->node = malloc((size_t)n * sizeof *out->node);
@@ -184,6 +184,8 @@ int sim_table_from_ramp(const wdr_sim *s, const double *t, const double *v, int 
         per_seg = 1;
     int lead = t[0] > 0, tail = t_int > t[n - 1];
     out->n = lead + per_seg * (n - 1) + 1 + tail;
+    if (out->n > SIM_MAX_NODES)
+        return WDR_E_INVAL;
     out->node = malloc((size_t)out->n * sizeof *out->node);
     if (!out->node)
         return WDR_E_NOMEM;
