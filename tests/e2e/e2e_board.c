@@ -152,6 +152,18 @@ int e2e_start(e2e_board *e, const char *board_name)
     return 0;
 }
 
+int e2e_reconnect(e2e_board *e)
+{
+    char err[320];
+    wdr_transport_close(e->t);
+    e->t = NULL;
+    if (wdr_transport_open(e->address, &e->t, err, sizeof err) != WDR_OK) {
+        fprintf(stderr, "%s\n", err);
+        return -1;
+    }
+    return wdr_client_connect(e->c, e->t) == WDR_OK ? 0 : -1;
+}
+
 static int wait_child(pid_t pid, int ms)
 {
     int status;
@@ -232,6 +244,16 @@ static uint16_t adc_code(const wdr_board *b, double v)
     double full = (double)((1u << b->adc_bits) - 1u), span = b->adc_hi_v - b->adc_lo_v;
     double code = floor(b->adc_gain * full * v / span + (b->adc_offset_v - b->adc_lo_v) * full / span + 0.5);
     return (uint16_t)(code < 0 ? 0 : code > full ? full : code);
+}
+
+uint16_t e2e_software_code(const wdr_board *b, const uint8_t *lut, size_t lut_len, double amps)
+{
+    wdr_lut_view view;
+    wdr_ideal_pixel px;
+    if (wdr_lut_parse(lut, lut_len, &view) != WDR_OK)
+        return 0xffff;
+    wdr_ideal_pixel_init(b, &px);
+    return adc_code(b, wdr_pixel_sf_out(&px.dev, wdr_lut_ideal_response(&px, &view, amps)));
 }
 
 typedef struct soft_model {

@@ -38,6 +38,12 @@ int e2e_reinhard_lut(const wdr_board *b, uint8_t **bytes, size_t *len);
 int e2e_software_frame(const wdr_board *b, const char *scene_path, const uint8_t *lut, size_t lut_len,
                        uint16_t *codes);
 
+/* The software model's code for one photocurrent. */
+uint16_t e2e_software_code(const wdr_board *b, const uint8_t *lut, size_t lut_len, double amps);
+
+/* Connect again (after a wdrctl run had the board). 0 on success. */
+int e2e_reconnect(e2e_board *e);
+
 /* Run a program with args (argv[0] included), bounded by a deadline; its exit code, or -1. */
 int e2e_run(char *const argv[], int deadline_s);
 

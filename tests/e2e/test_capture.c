@@ -117,6 +117,35 @@ static void wdrctl_program_end_to_end(void **state)
     free(px);
 }
 
+/* The simulation-only command: a uniform illuminant, as automated calibration uses it. */
+static void illuminant_lights_every_pixel(void **state)
+{
+    (void)state;
+    size_t n = (size_t)rig.board.width * rig.board.height;
+    uint16_t *frame = malloc(n * sizeof *frame);
+    assert_int_equal(e2e_reconnect(&rig), 0);
+    for (double amps = 1e-13; amps < 2e-8; amps *= 100) {
+        assert_int_equal(wdr_client_set_illuminant(rig.c, amps), WDR_OK);
+        assert_int_equal(wdr_client_capture(rig.c, 1, frame, NULL, NULL), WDR_OK);
+        int want = e2e_software_code(&rig.board, lut, lut_len, amps);
+        for (size_t i = 0; i < n; i++)
+            assert_true(abs((int)frame[i] - want) <= 1);
+    }
+    assert_int_equal(wdr_client_set_illuminant(rig.c, -1.0), WDR_E_STATUS);
+    free(frame);
+}
+
+static void wdrctl_stream_runs(void **state)
+{
+    (void)state;
+    wdr_transport_close(rig.t);
+    rig.t = NULL;
+    char *stream[] = {WDRCTL_PATH, "stream", "-n", "3", "--device", rig.address, NULL};
+    assert_int_equal(e2e_run(stream, 30), EX_OK);
+    char *illum[] = {WDRCTL_PATH, "sim", "illuminant", "1e-11", "--device", rig.address, NULL};
+    assert_int_equal(e2e_run(illum, 30), EX_OK);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -124,6 +153,8 @@ int main(void)
         cmocka_unit_test(capture_matches_software),
         cmocka_unit_test(frames_are_repeatable),
         cmocka_unit_test(wdrctl_program_end_to_end),
+        cmocka_unit_test(illuminant_lights_every_pixel),
+        cmocka_unit_test(wdrctl_stream_runs),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
