@@ -175,6 +175,19 @@ static int wait_child(pid_t pid, int ms)
     return -1;
 }
 
+int e2e_wait_exit(e2e_board *e, int ms)
+{
+    int status;
+    for (int waited = 0; waited <= ms; waited += 10) {
+        if (waitpid(e->pid, &status, WNOHANG) == e->pid) {
+            e->pid = 0;
+            return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        }
+        usleep(10000);
+    }
+    return -1;
+}
+
 void e2e_stop(e2e_board *e)
 {
     wdr_transport_close(e->t);

@@ -41,6 +41,10 @@ int e2e_software_frame(const wdr_board *b, const char *scene_path, const uint8_t
 /* The software model's code for one photocurrent. */
 uint16_t e2e_software_code(const wdr_board *b, const uint8_t *lut, size_t lut_len, double amps);
 
+/* Wait up to ms for the child to end; its exit status (0 clean), or -1 if it is still running
+ * or died by a signal. The child is then gone (e2e_stop has nothing left to end). */
+int e2e_wait_exit(e2e_board *e, int ms);
+
 /* Connect again (after a wdrctl run had the board). 0 on success. */
 int e2e_reconnect(e2e_board *e);
 

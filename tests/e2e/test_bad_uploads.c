@@ -10,6 +10,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <cmocka.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -217,6 +218,16 @@ static void good_upload_still_works(void **state)
     assert_previous_table_active(); /* the identity polynomial changes no code */
 }
 
+/* SIGTERM ends the board cleanly (status 0) and promptly. */
+static void board_exits_on_sigterm(void **state)
+{
+    (void)state;
+    wdr_transport_close(rig.t);
+    rig.t = NULL;
+    kill(rig.pid, SIGTERM);
+    assert_int_equal(e2e_wait_exit(&rig, 10000), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -224,6 +235,7 @@ int main(void)
         cmocka_unit_test(oversized_upload),       cmocka_unit_test(out_of_sequence),
         cmocka_unit_test(lut_for_another_dac),    cmocka_unit_test(calibration_for_another_sensor),
         cmocka_unit_test(wrong_kind),             cmocka_unit_test(good_upload_still_works),
+        cmocka_unit_test(board_exits_on_sigterm),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sysexits.h>
+#include <unistd.h>
 
 #ifndef WDRCTL_PATH
 #error "WDRCTL_PATH must name the wdrctl program"
@@ -144,6 +145,18 @@ static void wdrctl_stream_runs(void **state)
     assert_int_equal(e2e_run(stream, 30), EX_OK);
     char *illum[] = {WDRCTL_PATH, "sim", "illuminant", "1e-11", "--device", rig.address, NULL};
     assert_int_equal(e2e_run(illum, 30), EX_OK);
+    char *devices[] = {WDRCTL_PATH, "devices", "--device", rig.address, NULL};
+    assert_int_equal(e2e_run(devices, 30), EX_OK);
+}
+
+/* The board ends by itself, cleanly (status 0: no sanitizer report either), when the pipe on
+ * its stdin closes: a parent that dies takes its board along. */
+static void board_exits_on_parent_eof(void **state)
+{
+    (void)state;
+    close(rig.stdin_fd);
+    rig.stdin_fd = -1;
+    assert_int_equal(e2e_wait_exit(&rig, 10000), 0);
 }
 
 int main(void)
@@ -155,6 +168,7 @@ int main(void)
         cmocka_unit_test(wdrctl_program_end_to_end),
         cmocka_unit_test(illuminant_lights_every_pixel),
         cmocka_unit_test(wdrctl_stream_runs),
+        cmocka_unit_test(board_exits_on_parent_eof),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
