@@ -220,5 +220,6 @@ void sim_plan_effects(wdr_sim *s, sim_plan *plan)
     decide_auto(s, est, plan);
     plan->leak_v_per_s = plan->on[WDR_FX_LEAKAGE] ? leak_rate(s) : 0;
     sim_adc_line(&s->board, &plan->adc_scale, &plan->adc_zero);
+    plan->adc_full = (double)((1u << s->board.adc_bits) - 1u);
     fill_fixed_view(s, plan);
 }

@@ -14,8 +14,8 @@
  * node h(v): a = Q(V_N0) - Q(h), ch = C(h), ch2 = C'(h)/2, so a pixel whose M2 threshold is
  * off by d has Q(V_N0) - Q(h + d) = a - d (ch + d ch2) to third order in d (d ~ 10 mV). */
 typedef struct sim_node {
-    double t, a;
-    float ch, ch2, v, inv_t; /* inv_t: 1/t, 0 at t = 0 */
+    double t, a, ch, ch2;
+    float v, inv_t; /* inv_t: 1/t, 0 at t = 0 */
 } sim_node;
 
 /* The ramp as the crossing search sees it, plus a guess table indexed by the float bits of the
@@ -66,6 +66,7 @@ typedef struct sim_plan {
     int on[WDR_FX_COUNT];
     double leak_v_per_s; /* hold droop rate, V/s (0 if leakage is off) */
     double adc_scale, adc_zero; /* code = adc_scale * v_sf + adc_zero, before rounding */
+    double adc_full;            /* 2^bits - 1 */
 } sim_plan;
 
 typedef void (*wdr_sim_progress_fn)(void *ctx, int rows_done, int rows_total);
@@ -113,8 +114,11 @@ double sim_adc(const wdr_board *b, double v, int quantise, int clip);
 void sim_adc_line(const wdr_board *b, double *scale, double *zero);
 void sim_expose_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, int row, float *v_hold,
                     float *t_cross);
-void sim_read_row_codes(const wdr_sim *s, const sim_plan *plan, double t_int, int row, const float *v_hold,
-                        const float *t_cross, double t_after, int quantise, float *codes);
+/* Rows out: exactly one of out_f (float codes) and out_u16 (integer codes) is not NULL. */
+void sim_read_row(const wdr_sim *s, const sim_plan *plan, double t_int, int row, const float *v_hold,
+                  const float *t_cross, double t_after, float *out_f, uint16_t *out_u16);
+void sim_render_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, int row, double t_after,
+                    float *out_f, uint16_t *out_u16);
 
 /* sim_auto.c */
 void sim_plan_effects(wdr_sim *s, sim_plan *plan);

@@ -17,11 +17,12 @@ static inline double crossing_g(const sim_node *nd, const sim_px *p)
 /* The float bits of a positive current rise with it: their top bits are a cheap log2. */
 static inline int guess_node(const sim_ramp_table *tab, double amps)
 {
-    float f = amps > 1e-30 ? (amps < 1e30 ? (float)amps : 1e30f) : 1e-30f;
-    uint32_t u;
+    float f = amps < 1e30 ? (float)amps : 1e30f;
+    int32_t u; /* as a signed integer, a negative current sorts below every positive one */
     memcpy(&u, &f, sizeof u);
-    int64_t b = (int64_t)(u >> SIM_GUESS_SHIFT) - tab->guess_base;
-    b = b < 0 ? 0 : (b >= tab->n_guess ? tab->n_guess - 1 : b);
+    int32_t b = (u >> SIM_GUESS_SHIFT) - (int32_t)tab->guess_base;
+    b = b < 0 ? 0 : b;
+    b = b >= tab->n_guess ? tab->n_guess - 1 : b;
     return tab->guess[b];
 }
 
@@ -66,18 +67,31 @@ static inline int refine_guess(const sim_ramp_table *tab, const sim_px *p, int k
     return guess_node(tab, p->ie - (p->e0 - p->d * (nd->ch + p->d * nd->ch2)) * nd->inv_t);
 }
 
-/* First crossed node, from a guess k. */
-static inline int settle(const sim_ramp_table *tab, const sim_px *p, int k)
+/* Where the search ended: the first crossed node k (or the last node, not crossed), the
+ * condition there and at k-1 (+1 when k = 0), so the hold needs no re-evaluation. */
+typedef struct sim_cross {
+    int k;
+    double g_k, g_prev;
+} sim_cross;
+
+static inline sim_cross cross_at(const sim_ramp_table *tab, const sim_px *p, int k)
 {
-    /* The usual cases, tested without a loop: the first crossed node is k or k-1 (k-2 not
-     * crossed). The condition falls with the node index, so the flags are ordered. */
-    int k1 = k > 0 ? k - 1 : 0, k2 = k > 1 ? k - 2 : 0;
-    int c0 = crossing_g(&tab->node[k], p) <= 0;
-    int c1 = k > 0 && crossing_g(&tab->node[k1], p) <= 0;
-    int c2 = k > 1 && crossing_g(&tab->node[k2], p) <= 0;
-    if (__builtin_expect(c0 && !c2, 1))
-        return k - c1;
-    return walk_first(tab, p, k);
+    return (sim_cross){k, crossing_g(&tab->node[k], p), k > 0 ? crossing_g(&tab->node[k - 1], p) : 1.0};
+}
+
+/* First crossed node, from a guess k. The usual cases are tested without a loop: the answer
+ * is k, or k-1 (the second guess runs one step high when the bucket edge falls mid-step). */
+static inline sim_cross settle(const sim_ramp_table *tab, const sim_px *p, int k)
+{
+    double g0 = crossing_g(&tab->node[k], p), g1 = k > 0 ? crossing_g(&tab->node[k - 1], p) : 1.0;
+    if (__builtin_expect(g0 <= 0 && g1 > 0, 1))
+        return (sim_cross){k, g0, g1};
+    if (g1 <= 0) {
+        double g2 = k > 1 ? crossing_g(&tab->node[k - 2], p) : 1.0;
+        if (g2 > 0)
+            return (sim_cross){k - 1, g1, g2};
+    }
+    return cross_at(tab, p, walk_first(tab, p, k));
 }
 
 static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
@@ -105,11 +119,12 @@ static double jump_level(const sim_ramp_table *tab, const sim_px *p, const sim_n
 }
 
 /* Held G voltage and the time M2 turned off, for one pixel and frame. */
-static inline void hold_at(const sim_ramp_table *tab, const sim_px *p, int k, int need_t, double *v_hold,
+static inline void hold_at(const sim_ramp_table *tab, const sim_px *p, sim_cross c, int need_t, double *v_hold,
                            double *t_cross)
 {
+    int k = c.k;
     const sim_node *nd = &tab->node[k];
-    double gk = crossing_g(nd, p);
+    double gk = c.g_k, gp = c.g_prev;
     if (gk > 0) { /* never crossed: G followed the ramp to the end */
         *v_hold = nd->v;
         *t_cross = tab->t_int;
@@ -122,13 +137,13 @@ static inline void hold_at(const sim_ramp_table *tab, const sim_px *p, int k, in
     }
     const sim_node *pv = nd - 1;
     if (tab->continuous) {
-        double gp = crossing_g(pv, p), f = gp / (gp - gk);
+        double f = gp / (gp - gk);
         *v_hold = pv->v + f * (nd->v - pv->v);
         *t_cross = pv->t + f * (nd->t - pv->t);
         return;
     }
     double g_start = gk + p->ie * (nd->t - pv->t); /* the condition as the step began */
-    double gp = crossing_g(pv, p), dv = nd->v - pv->v;
+    double dv = nd->v - pv->v;
     if (dv > JUMP_LINEAR_MAX_V && g_start <= 0) {
         *v_hold = jump_level(tab, p, pv, gp, g_start, nd->v);
         *t_cross = pv->t;
@@ -196,8 +211,8 @@ static inline sim_px pixel_inputs(const wdr_sim *s, const sim_plan *plan, long i
 
 /* Electrons collected until M2 turned off are Poisson (Gaussian at these counts): move the
  * charge balance by one draw and let the crossing settle again from where it was. */
-static inline int add_shot_noise(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, long i,
-                                 sim_px *p, int k, double t)
+static inline sim_cross add_shot_noise(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, long i,
+                                       sim_px *p, int k, double t)
 {
     double sigma = sqrt(SIM_Q_E * p->ie * t * plan->fixed.cinv[i * plan->fixed.stride]);
     p->e0 -= sigma * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_SHOT, (uint64_t)i));
@@ -206,56 +221,100 @@ static inline int add_shot_noise(const wdr_sim *s, const sim_plan *plan, const s
 
 #define BATCH 32
 
-/* One row's pixels through reset, integration and the compare: held voltages and times.
- * Pixels go in batches, stage by stage, so the table look-ups of neighbouring pixels overlap
- * instead of waiting on each other. */
+/* Stages one and two for a batch of pixels: inputs and the two guesses. Stage by stage, the
+ * table look-ups of neighbouring pixels overlap instead of waiting on each other. */
+static inline void batch_guess(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, long i0, int n,
+                               sim_px *p, int *k)
+{
+    int offsets = plan->on[WDR_FX_MISMATCH] || plan->on[WDR_FX_KTC];
+    for (int j = 0; j < n; j++) {
+        p[j] = pixel_inputs(s, plan, i0 + j);
+        k[j] = guess_node(tab, p[j].ie);
+    }
+    for (int j = 0; offsets && j < n; j++)
+        k[j] = refine_guess(tab, &p[j], k[j]);
+}
+
+/* Stage three: the crossing, the held value, and shot noise on top. */
+static inline void pixel_hold(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, sim_px *p, int k,
+                              long i, int need_t, double *v, double *t)
+{
+    sim_cross c = settle(tab, p, k);
+    hold_at(tab, p, c, need_t, v, t);
+    if (plan->on[WDR_FX_SHOT] && p->ie * *t > 0)
+        hold_at(tab, p, add_shot_noise(s, plan, tab, i, p, c.k, *t), need_t, v, t);
+}
+
+static int needs_cross_time(const sim_plan *plan) { return plan->on[WDR_FX_SHOT] || plan->on[WDR_FX_LEAKAGE]; }
+
+/* One row's pixels through reset, integration and the compare: held voltages and times. */
 void sim_expose_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, int row, float *v_hold,
                     float *t_cross)
 {
-    int need_t = plan->on[WDR_FX_SHOT] || plan->on[WDR_FX_LEAKAGE];
-    int offsets = plan->on[WDR_FX_MISMATCH] || plan->on[WDR_FX_KTC];
     sim_px p[BATCH];
-    int k[BATCH];
+    int k[BATCH], need_t = needs_cross_time(plan);
     for (int x0 = 0; x0 < s->width; x0 += BATCH) {
         int n = s->width - x0 < BATCH ? s->width - x0 : BATCH;
         long i0 = (long)row * s->width + x0;
-        for (int j = 0; j < n; j++) {
-            p[j] = pixel_inputs(s, plan, i0 + j);
-            k[j] = guess_node(tab, p[j].ie);
-        }
-        for (int j = 0; offsets && j < n; j++)
-            k[j] = refine_guess(tab, &p[j], k[j]);
+        batch_guess(s, plan, tab, i0, n, p, k);
         for (int j = 0; j < n; j++) {
             double v, t;
-            k[j] = settle(tab, &p[j], k[j]);
-            hold_at(tab, &p[j], k[j], need_t, &v, &t);
-            if (plan->on[WDR_FX_SHOT] && p[j].ie * t > 0)
-                hold_at(tab, &p[j], add_shot_noise(s, plan, tab, i0 + j, &p[j], k[j], t), need_t, &v, &t);
+            pixel_hold(s, plan, tab, &p[j], k[j], i0 + j, need_t, &v, &t);
             v_hold[x0 + j] = (float)v;
             t_cross[x0 + j] = (float)t;
         }
     }
 }
 
-/* One row read t_after seconds after integration: droop, source follower, read noise, ADC. */
-void sim_read_row_codes(const wdr_sim *s, const sim_plan *plan, double t_int, int row, const float *v_hold,
-                        const float *t_cross, double t_after, int quantise, float *codes)
+/* Droop until the read, source follower, read noise: the ADC's code before rounding. */
+static inline double read_code(const wdr_sim *s, const sim_plan *plan, long i, double v_hold, double t_cross,
+                               double t_int, double t_after)
 {
-    const sim_fixed_view *f = &plan->fixed;
-    int clip = plan->on[WDR_FX_CLIPPING];
-    float full = (float)((1u << s->board.adc_bits) - 1u);
-    quantise = quantise && plan->on[WDR_FX_ADC_QUANT];
+    double vg = v_hold - plan->leak_v_per_s * (t_int - t_cross + t_after);
+    double vo = sim_sf_out(s, plan->fixed.sf_k[i * plan->fixed.stride], vg);
+    if (plan->on[WDR_FX_READ])
+        vo += s->board.read_noise_v * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_READ, (uint64_t)i));
+    return plan->adc_scale * vo + plan->adc_zero;
+}
+
+/* A code as stored: a float frame honours adc_quant and clipping; an integer frame always
+ * holds a rounded in-range code. */
+static inline void store_code(const sim_plan *plan, double code, long x, float *out_f, uint16_t *out_u16)
+{
+    if (out_u16) {
+        code = clampd(code, 0.0, plan->adc_full);
+        out_u16[x] = (uint16_t)(int)(code + 0.5);
+        return;
+    }
+    if (plan->on[WDR_FX_ADC_QUANT])
+        code = round_half_up(code);
+    out_f[x] = (float)(plan->on[WDR_FX_CLIPPING] ? clampd(code, 0.0, plan->adc_full) : code);
+}
+
+void sim_read_row(const wdr_sim *s, const sim_plan *plan, double t_int, int row, const float *v_hold,
+                  const float *t_cross, double t_after, float *out_f, uint16_t *out_u16)
+{
     for (int x = 0; x < s->width; x++) {
         long i = (long)row * s->width + x;
-        double vg = v_hold[x];
-        if (plan->leak_v_per_s > 0)
-            vg -= plan->leak_v_per_s * (t_int - t_cross[x] + t_after);
-        double vo = sim_sf_out(s, f->sf_k[i * f->stride], vg);
-        if (plan->on[WDR_FX_READ])
-            vo += s->board.read_noise_v * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_READ, (uint64_t)i));
-        double code = plan->adc_scale * vo + plan->adc_zero;
-        if (quantise)
-            code = round_half_up(code);
-        codes[x] = (float)(clip ? clampd(code, 0.0, full) : code);
+        store_code(plan, read_code(s, plan, i, v_hold[x], t_cross[x], t_int, t_after), x, out_f, out_u16);
+    }
+}
+
+void sim_render_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, int row, double t_after,
+                    float *out_f, uint16_t *out_u16)
+{
+    sim_px p[BATCH];
+    int k[BATCH], need_t = needs_cross_time(plan);
+    for (int x0 = 0; x0 < s->width; x0 += BATCH) {
+        int n = s->width - x0 < BATCH ? s->width - x0 : BATCH;
+        long i0 = (long)row * s->width + x0;
+        batch_guess(s, plan, tab, i0, n, p, k);
+        for (int j = 0; j < n; j++) {
+            double v, t;
+            pixel_hold(s, plan, tab, &p[j], k[j], i0 + j, need_t, &v, &t);
+            /* the same float rounding of v and t as expose + read_row, so both give the same bits */
+            double code = read_code(s, plan, i0 + j, (float)v, (float)t, tab->t_int, t_after);
+            store_code(plan, code, x0 + j, out_f, out_u16);
+        }
     }
 }

@@ -41,8 +41,8 @@ static int fill_node(const wdr_sim *s, sim_node *nd, double t, double v)
     nd->inv_t = t > 0 ? (float)(1.0 / t) : 0.0f;
     nd->v = (float)v;
     nd->a = s->q0_nom - wdr_pixel_charge(&s->nom, h);
-    nd->ch = (float)ch;
-    nd->ch2 = (float)(-0.5 * s->nom.mj / (s->nom.pb + h) * ch);
+    nd->ch = ch;
+    nd->ch2 = -0.5 * s->nom.mj / (s->nom.pb + h) * ch;
     return WDR_OK;
 }
 

@@ -5,7 +5,6 @@
 #include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
-#include <stdlib.h>
 #include <unistd.h>
 
 #define ROWS_PER_GRAB 4
@@ -17,7 +16,6 @@ typedef struct render_job {
     enum job_kind kind;
     void *out;
     atomic_int next_row, rows_done;
-    int failed;
 } render_job;
 
 static const sim_ramp_table *active_table(const wdr_sim *s, const sim_plan *plan)
@@ -25,61 +23,34 @@ static const sim_ramp_table *active_table(const wdr_sim *s, const sim_plan *plan
     return plan->on[WDR_FX_DAC_QUANT] ? &s->stepped : &s->continuous;
 }
 
-/* An integer frame always holds in-range codes, whatever the clipping switch says. */
-static void store_u16(const wdr_sim *s, uint16_t *out, const float *codes)
-{
-    float full = (float)((1u << s->board.adc_bits) - 1u);
-    for (int x = 0; x < s->width; x++)
-        out[x] = (uint16_t)(codes[x] <= 0 ? 0 : (codes[x] >= full ? full : (int)(codes[x] + 0.5f)));
-}
-
-static void store_codes(render_job *job, int row, const float *codes)
-{
-    long off = (long)row * job->s->width;
-    if (job->kind == JOB_RENDER_U16) {
-        store_u16(job->s, (uint16_t *)job->out + off, codes);
-        return;
-    }
-    float *out = (float *)job->out + off;
-    for (int x = 0; x < job->s->width; x++)
-        out[x] = codes[x];
-}
-
-static void do_row(render_job *job, int row, float *v, float *t, float *codes)
+static void do_row(render_job *job, int row)
 {
     wdr_sim *s = job->s;
     const sim_ramp_table *tab = active_table(s, &s->plan);
-    if (job->kind == JOB_EXPOSE) {
-        sim_expose_row(s, &s->plan, tab, row, s->hold_v + (long)row * s->width, s->hold_t + (long)row * s->width);
-        return;
-    }
-    sim_expose_row(s, &s->plan, tab, row, v, t);
-    sim_read_row_codes(s, &s->plan, tab->t_int, row, v, t, row * s->board.row_time_s,
-                       job->kind == JOB_RENDER_U16, codes);
-    store_codes(job, row, codes);
+    long off = (long)row * s->width;
+    if (job->kind == JOB_EXPOSE)
+        sim_expose_row(s, &s->plan, tab, row, s->hold_v + off, s->hold_t + off);
+    else if (job->kind == JOB_RENDER_FLOAT)
+        sim_render_row(s, &s->plan, tab, row, row * s->board.row_time_s, (float *)job->out + off, NULL);
+    else
+        sim_render_row(s, &s->plan, tab, row, row * s->board.row_time_s, NULL, (uint16_t *)job->out + off);
 }
 
 static void *worker(void *arg)
 {
     render_job *job = arg;
     wdr_sim *s = job->s;
-    float *buf = malloc((size_t)s->width * 3 * sizeof *buf);
-    if (!buf) {
-        job->failed = 1;
-        return NULL;
-    }
     for (;;) {
         int row0 = atomic_fetch_add(&job->next_row, ROWS_PER_GRAB);
         if (row0 >= s->height)
             break;
         int row1 = row0 + ROWS_PER_GRAB < s->height ? row0 + ROWS_PER_GRAB : s->height;
         for (int r = row0; r < row1; r++)
-            do_row(job, r, buf, buf + s->width, buf + 2 * s->width);
+            do_row(job, r);
         int done = atomic_fetch_add(&job->rows_done, row1 - row0) + row1 - row0;
         if (s->progress)
             s->progress(s->progress_ctx, done, s->height);
     }
-    free(buf);
     return NULL;
 }
 
@@ -106,7 +77,7 @@ static int run_job(wdr_sim *s, enum job_kind kind, void *out)
     worker(&job);
     for (int k = 0; k < started; k++)
         pthread_join(th[k], NULL);
-    return job.failed ? WDR_E_NOMEM : WDR_OK;
+    return WDR_OK;
 }
 
 static int begin_frame(wdr_sim *s, uint64_t frame_seed)
@@ -132,14 +103,9 @@ int wdr_sim_read_row(wdr_sim *s, int row, double t_after_s, uint16_t *codes)
 {
     if (!s->exposed || row < 0 || row >= s->height || !(t_after_s >= 0) || !isfinite(t_after_s))
         return WDR_E_INVAL;
-    float *buf = malloc((size_t)s->width * sizeof *buf);
-    if (!buf)
-        return WDR_E_NOMEM;
     const sim_ramp_table *tab = active_table(s, &s->plan);
     long off = (long)row * s->width;
-    sim_read_row_codes(s, &s->plan, tab->t_int, row, s->hold_v + off, s->hold_t + off, t_after_s, 1, buf);
-    store_u16(s, codes, buf);
-    free(buf);
+    sim_read_row(s, &s->plan, tab->t_int, row, s->hold_v + off, s->hold_t + off, t_after_s, NULL, codes);
     return WDR_OK;
 }
 

@@ -63,7 +63,8 @@ int wdr_sim_read_row(wdr_sim *s, int row, double t_after_s, uint16_t *codes);
 /* Expose and read every row at the board's row time: a whole raw frame (width*height codes). */
 int wdr_sim_render(wdr_sim *s, uint64_t frame_seed, uint16_t *frame);
 
-/* Same, but with unquantised ADC output in codes (for studies and calibration truth). */
+/* Same, but float codes: unrounded unless adc_quant is on, and outside [0, 2^bits - 1] only if
+ * clipping is off (for studies and calibration truth). */
 int wdr_sim_render_float(wdr_sim *s, uint64_t frame_seed, float *frame);
 
 /* Report of the last expose/render, indexed by enum wdr_effect. */
