@@ -88,7 +88,7 @@ static int spawn_board(e2e_board *e, const char *board_path)
     posix_spawn_file_actions_addclose(&fa, p[1]);
     posix_spawn_file_actions_addopen(&fa, 2, log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     char *argv[] = {WDR_SIMBOARD_PATH, "--board", (char *)board_path, "--scene", e->scene_path,
-                    "--socket", e->socket_path, NULL};
+                    "--socket", e->socket_path, e->flash_path ? "--flash" : NULL, (char *)e->flash_path, NULL};
     int rc = posix_spawn(&e->pid, WDR_SIMBOARD_PATH, &fa, NULL, argv, environ);
     posix_spawn_file_actions_destroy(&fa);
     close(p[0]);
@@ -124,10 +124,13 @@ static int connect_when_ready(e2e_board *e)
     return -1;
 }
 
-int e2e_start(e2e_board *e, const char *board_name)
+int e2e_start(e2e_board *e, const char *board_name) { return e2e_start_with_flash(e, board_name, NULL); }
+
+int e2e_start_with_flash(e2e_board *e, const char *board_name, const char *flash_path)
 {
     char board_path[512], err[512];
     memset(e, 0, sizeof *e);
+    e->flash_path = flash_path;
     e->stdin_fd = -1;
     snprintf(e->dir, sizeof e->dir, "/tmp/wdr-e2e-XXXXXX");
     if (!mkdtemp(e->dir))

@@ -15,6 +15,7 @@ typedef struct e2e_board {
     char socket_path[128];
     char address[160];       /* "sim:<socket_path>" */
     char scene_path[128];
+    const char *flash_path;  /* --flash FILE, or NULL (RAM) */
     pid_t pid;
     int stdin_fd;            /* write end of the child's stdin */
     wdr_board board;
@@ -25,6 +26,9 @@ typedef struct e2e_board {
 /* Write the default scene (sim/scenes/window.json) with every fixed-pattern and temporal effect
  * off and the quantisations on, start wdr-simboard on board_name, connect. 0 on success. */
 int e2e_start(e2e_board *e, const char *board_name);
+
+/* The same, with the board's flash kept in flash_path (which outlives e2e_stop). */
+int e2e_start_with_flash(e2e_board *e, const char *board_name, const char *flash_path);
 
 /* Disconnect, end the child (EOF on its stdin, then SIGTERM after a grace period), remove the folder. */
 void e2e_stop(e2e_board *e);

@@ -394,6 +394,28 @@ static void capture_stall_times_out(void **state)
     rig_stop(r);
 }
 
+static int script_unplug_mid_frame(fake_board *b, const wdr_packet *req, int n)
+{
+    if (req->h.opcode != WDR_CMD_CAPTURE)
+        return fake_script_good(b, req, n);
+    fake_reply(b, req, WDR_ST_OK, NULL, 0);
+    uint8_t row[WDR_PROTO_ROW_HEADER + 2 * 16] = {0};
+    wdr_put_u16(row + 6, b->width);
+    fake_event(b, WDR_CMD_ROW, req->h.seq, row, sizeof row);
+    return -1; /* one row, then the cable */
+}
+
+static void disconnect_mid_capture(void **state)
+{
+    (void)state;
+    rig *r = rig_start(script_unplug_mid_frame, 1000);
+    uint16_t codes[16 * 8];
+    assert_int_equal(wdr_client_connect(r->c, r->t), WDR_OK);
+    assert_int_equal(wdr_client_capture(r->c, 1, codes, NULL, NULL), WDR_E_IO);
+    assert_non_null(strstr(r->c->err, "disconnected during CAPTURE"));
+    rig_stop(r);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -415,6 +437,7 @@ int main(void)
         cmocka_unit_test(capture_assembles_frames),
         cmocka_unit_test(missing_rows_are_protocol_error),
         cmocka_unit_test(capture_stall_times_out),
+        cmocka_unit_test(disconnect_mid_capture),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

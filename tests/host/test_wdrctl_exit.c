@@ -102,6 +102,14 @@ static int script_hangup_mid_upload(fake_board *b, const wdr_packet *req, int n)
     return fake_script_good(b, req, n);
 }
 
+static int script_unplug_mid_frame(fake_board *b, const wdr_packet *req, int n)
+{
+    if (req->h.opcode != WDR_CMD_CAPTURE)
+        return fake_script_good(b, req, n);
+    fake_reply(b, req, WDR_ST_OK, NULL, 0);
+    return -1;
+}
+
 static int script_refuse(fake_board *b, const wdr_packet *req, int n)
 {
     int status = req->h.opcode == WDR_CMD_CAL_COMMIT ? WDR_ST_BAD_GEOMETRY
@@ -164,6 +172,18 @@ static void unplugged_mid_upload(void **state)
     const char *file = write_file("big.bin", table, sizeof table);
     start_board(&b, script_hangup_mid_upload, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"lut", "upload", file, "--no-verify", "--device", addr, NULL}), EX_IOERR);
+    assert_non_null(strstr(err_text, "disconnected"));
+    fake_board_stop(&b);
+}
+
+static void unplugged_mid_capture(void **state)
+{
+    (void)state;
+    fake_board b;
+    char addr[160], out[128];
+    snprintf(out, sizeof out, "%s/lost.png", dir);
+    start_board(&b, script_unplug_mid_frame, addr, sizeof addr);
+    assert_int_equal(run_wdrctl((const char *[]){"capture", "-n", "3", "-o", out, "--device", addr, NULL}), EX_IOERR);
     assert_non_null(strstr(err_text, "disconnected"));
     fake_board_stop(&b);
 }
@@ -258,6 +278,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(usage_errors),        cmocka_unit_test(board_absent),
         cmocka_unit_test(board_silent),        cmocka_unit_test(unplugged_mid_upload),
+        cmocka_unit_test(unplugged_mid_capture),
         cmocka_unit_test(refused_upload),      cmocka_unit_test(bad_table_files),
         cmocka_unit_test(refused_requests),    cmocka_unit_test(other_protocol_version),
         cmocka_unit_test(good_board_round_trip),
