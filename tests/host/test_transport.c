@@ -110,6 +110,14 @@ static void bad_addresses(void **state)
     assert_non_null(strstr(err, "/nonexistent/dir/board.sock"));
     assert_int_equal(wdr_transport_open("usb:zz", &t, err, sizeof err), WDR_E_INVAL);
     assert_null(t);
+    /* No board on this machine's bus (or no USB at all in a container): absent, or libusb
+     * could not start; either way a message, not a crash. */
+    int rc = wdr_transport_open("usb:250-127", &t, err, sizeof err);
+    assert_true(rc == WDR_E_ABSENT || rc == WDR_E_IO);
+    assert_true(strlen(err) > 10);
+    wdr_usb_board boards[4];
+    int found = wdr_transport_list_usb(boards, 4, err, sizeof err);
+    assert_true(found >= 0 || found == WDR_E_IO);
 }
 
 /* ---- Requests ------------------------------------------------------------------------------------ */
