@@ -33,6 +33,7 @@ enum wdr_cal_model_id {
     WDR_MODEL_COMPLEX4 = 2, /* paper eq. 21-26: y = a - b x(1+e x)/(1+c x) */
     WDR_MODEL_LSQ = 3,      /* least squares over N currents on a physical basis (any operator) */
     WDR_MODEL_POLYMAP = 4,  /* least-squares polynomial map from pixel codes to nominal codes */
+    WDR_MODEL_SPLINE = 5,   /* per-pixel monotone cubic through its own N responses, in ln x */
     WDR_MODEL_COUNT
 };
 

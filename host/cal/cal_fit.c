@@ -357,6 +357,8 @@ static int levels_needed(const wdr_cal_config *cfg)
         return 4 + ref;
     case WDR_MODEL_LSQ:
         return WDR_LSQ_PARAMS + 2;
+    case WDR_MODEL_SPLINE:
+        return 4;
     default:
         return cfg->n_coeffs + 1;
     }
@@ -371,6 +373,8 @@ static int params_of(int model, int n_coeffs)
         return 5;
     case WDR_MODEL_LSQ:
         return WDR_LSQ_PARAMS;
+    case WDR_MODEL_SPLINE:
+        return WDR_CAL_MAX_LEVELS; /* its own responses at the calibration currents */
     default:
         return n_coeffs;
     }
@@ -378,10 +382,15 @@ static int params_of(int model, int n_coeffs)
 
 /* LSQ: three basis weights found by QR for each trial offset; the offset by a 1-D search over
  * this fraction of the nominal swing either side of the pixel's bright-end deviation. */
-#define LSQ_LINEAR 3
+#define LSQ_LINEAR 4
 #define LSQ_SEARCH_FRAC 0.03
+#define LSQ_SCAN 8    /* scan points either side */
+#define LSQ_GOLDEN 30 /* refinement steps: the bracket shrinks to 1e-6 of a scan step */
 
-static int is_curve_model(int model) { return model == WDR_MODEL_LSQ || model == WDR_MODEL_POLYMAP; }
+static int is_curve_model(int model)
+{
+    return model == WDR_MODEL_LSQ || model == WDR_MODEL_POLYMAP || model == WDR_MODEL_SPLINE;
+}
 
 /* The POLYMAP map's input variable: raw codes onto [-1, 1], the same as the table header's. */
 static double lsq_u(const wdr_cal_result *res, double y) { return 2 * y / res->cfg.raw_max - 1; }
@@ -444,6 +453,42 @@ static int fit_polymap_pixel(const wdr_cal_result *res, const double *y, const d
     return WDR_FIT_OK;
 }
 
+/* Fast inverse of the nominal curve: table guess, then one Newton step (the curve is smooth
+ * and the guess is within a fraction of a code). Outside the table: the full inverse. */
+static double nominal_invert_lx(const wdr_nominal *n, double z)
+{
+    double f = n->inv_lx ? (z - n->inv_z0) / n->inv_dz : -1;
+    if (!(f >= 0 && f < n->inv_n - 1))
+        return wdr_pchip_invert(&n->curve, z);
+    int k = (int)f;
+    double lx = n->inv_lx[k] + (f - k) * (n->inv_lx[k + 1] - n->inv_lx[k]);
+    double slope = wdr_pchip_slope(&n->curve, lx);
+    if (slope != 0) {
+        double next = lx - (wdr_pchip_eval(&n->curve, lx) - z) / slope;
+        if (fabs(next - lx) < 0.1)
+            lx = next;
+    }
+    return lx;
+}
+
+#define INV_STEP_CODES 0.25
+
+static int build_inverse_table(wdr_nominal *n)
+{
+    double z_hi = n->curve.y[0], z_lo = n->curve.y[n->curve.n - 1];
+    if (!(z_hi > z_lo))
+        return WDR_OK; /* no table: the full inverse is used */
+    n->inv_n = (int)ceil((z_hi - z_lo) / INV_STEP_CODES) + 1;
+    n->inv_z0 = z_lo;
+    n->inv_dz = (z_hi - z_lo) / (n->inv_n - 1);
+    n->inv_lx = malloc(sizeof(double) * (size_t)n->inv_n);
+    if (!n->inv_lx)
+        return WDR_E_NOMEM;
+    for (int k = 0; k < n->inv_n; k++)
+        n->inv_lx[k] = wdr_pchip_invert(&n->curve, n->inv_z0 + k * n->inv_dz);
+    return WDR_OK;
+}
+
 /* The LSQ basis at offset-free code z (see cal_fit.h), in units of x_scale. I'/D is C / t(z),
  * one over the ramp time at that level. Darker than the lowest calibration level the nominal
  * response is linear in x, y = y_top - b0 x, so I'/D stays 1/b0 there, and I' = D / b0 goes on
@@ -451,24 +496,29 @@ static int fit_polymap_pixel(const wdr_cal_result *res, const double *y, const d
 static void lsq_basis(const wdr_cal_result *res, double z, double *phi)
 {
     const wdr_nominal *n = &res->nominal;
-    double x_lo = n->x_lo / res->x_scale, d = n->y_top - z, d_lo = n->y_top - n->curve.y[0];
+    double x_lo = exp(n->curve.lx[0]) / res->x_scale, d = n->y_top - z, d_lo = n->y_top - n->curve.y[0];
     if (z >= n->curve.y[0]) {
         phi[0] = d * x_lo / d_lo;
         phi[1] = x_lo / d_lo;
     } else {
-        double lx = wdr_pchip_invert(&n->curve, z);
+        double lx = nominal_invert_lx(n, z);
         phi[0] = exp(fmin(lx, log(1e-2))) / res->x_scale;
         phi[1] = phi[0] / d;
     }
-    phi[2] = 1;
+    /* the photodiode's capacitance changes with its voltage, so a threshold offset's weight
+     * drifts along the swing. A term linear in the level is already I' (I'/D times D), so the
+     * next one is quadratic */
+    double s = (z - n->curve.y[n->curve.n - 1]) / (n->curve.y[0] - n->curve.y[n->curve.n - 1]);
+    phi[2] = phi[1] * s * s;
+    phi[3] = 1;
 }
 
-/* theta: k1, k2, k3 of the basis, then the source-follower offset o (codes). */
+/* theta: k1..k4 of the basis, then the source-follower offset o (codes). */
 static double lsq_recover_u(const wdr_cal_result *res, const double *theta, double y)
 {
     double phi[LSQ_LINEAR];
     lsq_basis(res, y - theta[LSQ_LINEAR], phi);
-    return theta[0] * phi[0] + theta[1] * phi[1] + theta[2] * phi[2];
+    return theta[0] * phi[0] + theta[1] * phi[1] + theta[2] * phi[2] + theta[3] * phi[3];
 }
 
 /* For a given offset the model is linear: solve it by QR and return the rms relative residual. */
@@ -497,9 +547,9 @@ static double lsq_solve_at(const wdr_cal_result *res, const double *y, const dou
 static double lsq_search_offset(const wdr_cal_result *res, const double *y, const double *u, int n,
                                 const double *med, double *theta)
 {
-    double o0 = y[n - 1] - med[n - 1], w = LSQ_SEARCH_FRAC * (med[0] - med[n - 1]), step = w / 16;
+    double o0 = y[n - 1] - med[n - 1], w = LSQ_SEARCH_FRAC * (med[0] - med[n - 1]), step = w / LSQ_SCAN;
     double best = o0, best_r = INFINITY, tmp[WDR_LSQ_PARAMS];
-    for (int s = -16; s <= 16; s++) {
+    for (int s = -LSQ_SCAN; s <= LSQ_SCAN; s++) {
         double r = lsq_solve_at(res, y, u, n, o0 + s * step, tmp);
         if (r < best_r)
             best_r = r, best = o0 + s * step;
@@ -507,7 +557,7 @@ static double lsq_search_offset(const wdr_cal_result *res, const double *y, cons
     const double g = 0.3819660112501051;
     double lo = best - step, hi = best + step, m1 = lo + g * (hi - lo), m2 = hi - g * (hi - lo);
     double r1 = lsq_solve_at(res, y, u, n, m1, tmp), r2 = lsq_solve_at(res, y, u, n, m2, tmp);
-    for (int it = 0; it < 40; it++) {
+    for (int it = 0; it < LSQ_GOLDEN; it++) {
         if (r1 < r2)
             hi = m2, m2 = m1, r2 = r1, m1 = lo + g * (hi - lo), r1 = lsq_solve_at(res, y, u, n, m1, tmp);
         else
@@ -539,23 +589,35 @@ static int fit_lsq_pixel(const wdr_cal_result *res, const double *y, const doubl
     return WDR_FIT_OK;
 }
 
-/* Nominal dark level: the dark frame's median if it lies above the curve, else the curve
- * continued two decades below the lowest current. */
-static double dark_top(const wdr_cal_levels *lv, const wdr_cal_result *res, const double *med)
+/* Nominal dark level: the response is linear in x below the lowest currents, so the secant of
+ * the two lowest levels continued to zero current. (The dark frame is no substitute: dark current
+ * moves it, and under slow ramps it holds the ramp's last code.) */
+static double dark_top(const wdr_cal_levels *lv, const double *med)
 {
-    double far = wdr_pchip_eval(&res->nominal.curve, log(lv->amps[0]) - log(100));
-    if (!lv->dark)
-        return far;
-    long np = (long)lv->width * lv->height, m = 0;
-    float *good = malloc(sizeof(float) * 2 * (size_t)np);
-    if (!good)
-        return far;
-    for (long i = 0; i < np; i++)
-        if (!res->flags[i])
-            good[m++] = lv->dark[i];
-    double top = m ? median_of(good, m, good + np) : far;
-    free(good);
-    return top > med[0] + 1e-6 * (med[0] - med[lv->n - 1]) ? top : far;
+    double b = (med[0] - med[1]) / (lv->amps[1] - lv->amps[0]);
+    return med[0] + b * lv->amps[0];
+}
+
+/* SPLINE: the pixel's own responses are the model; they must fall strictly. */
+static int fit_spline_pixel(const double *y, int n, double *par)
+{
+    for (int k = 0; k < n; k++) {
+        if (!isfinite(y[k]))
+            return WDR_FIT_NONFINITE;
+        if (k > 0 && !(y[k] < y[k - 1]))
+            return y[k] == y[k - 1] ? WDR_FIT_FLAT : WDR_FIT_REVERSED;
+        par[k] = y[k];
+    }
+    return WDR_FIT_OK;
+}
+
+static double spline_recover(const wdr_cal_result *res, const double *par, double y)
+{
+    wdr_pchip p;
+    if (wdr_pchip_init(&p, res->nominal.curve.lx, par, res->nominal.curve.n))
+        return 0;
+    double lx = wdr_pchip_invert(&p, y);
+    return lx > log(1e-22) ? exp(fmin(lx, log(1e-2))) : 0;
 }
 
 static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const double *med, char *err, int errlen)
@@ -563,8 +625,8 @@ static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const doub
     wdr_nominal *n = &res->nominal;
     double u[WDR_CAL_MAX_LEVELS], lx[WDR_CAL_MAX_LEVELS], par[8] = {0};
     n->model = res->model;
-    n->x_lo = lv->amps[0] > 0 ? lv->amps[0] : lv->amps[1];
-    n->x_hi = lv->amps[lv->n - 1];
+    n->x_lo = res->cfg.range_lo > 0 ? res->cfg.range_lo : lv->amps[0] > 0 ? lv->amps[0] : lv->amps[1];
+    n->x_hi = res->cfg.range_hi > n->x_lo ? res->cfg.range_hi : lv->amps[lv->n - 1];
     for (int k = 0; k < lv->n; k++) {
         u[k] = lv->amps[k] / res->x_scale;
         lx[k] = log(fmax(lv->amps[k], 1e-30));
@@ -575,7 +637,9 @@ static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const doub
         for (int k = 1; !st && k < lv->n; k++)
             if (!(med[k] < med[k - 1]))
                 st = WDR_FIT_REVERSED; /* the nominal must fall strictly to have an inverse */
-        n->y_top = !st ? dark_top(lv, res, med) : 0;
+        n->y_top = !st ? dark_top(lv, med) : 0;
+        if (!st && res->model == WDR_MODEL_LSQ && build_inverse_table(n))
+            return WDR_E_NOMEM;
     } else
         st = fit_paper_pixel(res, u, med, par);
     n->s3 = (wdr_simple3){par[0], par[1], par[2], par[3], res->x_scale};
@@ -665,6 +729,8 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
             st = fit_lsq_pixel(res, y, u, lv->n, med, par);
         else if (res->model == WDR_MODEL_POLYMAP)
             st = fit_polymap_pixel(res, y, med, w, lv->n, par);
+        else if (res->model == WDR_MODEL_SPLINE)
+            st = fit_spline_pixel(y, lv->n, par);
         else
             st = fit_paper_pixel(res, u, y, par);
         if (st) {
@@ -717,6 +783,8 @@ int wdr_cal_fit_array(const wdr_cal_levels *lv, const wdr_cal_config *cfg, wdr_c
 
 void wdr_cal_result_free(wdr_cal_result *res)
 {
+    free(res->nominal.inv_lx);
+    res->nominal.inv_lx = NULL;
     free(res->params);
     free(res->flags);
     free(res->status);
@@ -745,6 +813,8 @@ double wdr_cal_recover(const wdr_cal_result *res, long i, double y, int *status)
     } else if (res->model == WDR_MODEL_LSQ) {
         u = lsq_recover_u(res, p, y);
         return isfinite(u) ? u * res->x_scale : 0;
+    } else if (res->model == WDR_MODEL_SPLINE) {
+        return spline_recover(res, p, y);
     } else {
         return wdr_nominal_invert(&res->nominal, poly_eval(p, res->n_params, lsq_u(res, y)));
     }

@@ -32,7 +32,10 @@ typedef struct wdr_nominal {
     wdr_complex4 c4;
     wdr_pchip curve;
     double x_lo, x_hi; /* calibrated range (A) */
-    double y_top;      /* LSQ: the nominal dark level (dark-frame median, or the curve far below x_lo) */
+    double y_top;      /* LSQ: the nominal level at zero current (the lowest two levels' secant) */
+    /* LSQ: ln x at codes z0 + k dz, a starting point that one Newton step on the curve polishes */
+    double *inv_lx, inv_z0, inv_dz;
+    int inv_n;
 } wdr_nominal;
 
 double wdr_nominal_eval(const wdr_nominal *n, double x);
@@ -51,6 +54,7 @@ typedef struct wdr_cal_config {
     uint16_t out_max;
     double stuck_frac, dead_frac, hot_frac; /* bad-pixel thresholds (see cal_fit.c) */
     double max_residual;/* LSQ/POLYMAP: largest rms relative residual at the calibration currents */
+    double range_lo, range_hi; /* currents the table must serve (A); 0: the calibration currents' span */
 } wdr_cal_config;
 
 void wdr_cal_config_defaults(wdr_cal_config *c, int model);
@@ -79,10 +83,12 @@ void wdr_cal_detect_bad(const wdr_cal_levels *lv, const wdr_cal_config *cfg, uin
  *
  * LSQ is least squares on a basis that follows from the pixel physics. A pixel whose photodiode
  * capacitance, reset level, M2 threshold, dark current and source-follower offset differ from
- * nominal recovers x = k1 I'(y - o) + k2 I'(y - o) / D(y - o) + k3, where I'(z) is the nominal
- * inverse (PCHIP of the array median), D(z) = y_top - z the nominal swing from dark through which
- * the reset and threshold offsets act, k3 the dark current and o the source-follower offset.
- * k1..k3 are linear (QR) for a given o; o is found by a 1-D search (variable projection).
+ * nominal recovers x = k1 I'(z) + (k2 + k3 s(z)^2) I'(z) / D(z) + k4 with z = y - o, where I'(z)
+ * is the nominal inverse (monotone cubic through the array medians), D(z) = y_top - z the
+ * nominal swing from dark through which the reset and threshold offsets act (I'/D is one over
+ * the ramp time at that level), s(z) the level scaled to [0, 1] (the junction capacitance
+ * changes along the swing; a linear term would repeat I' = D I'/D), k4 the dark current and o the source-follower offset.
+ * k1..k4 are linear (QR) for a given o; o is found by a 1-D search (variable projection).
  * Residuals are relative, so the fit minimises the contrast error itself.
  * @retval WDR_OK
  * @retval WDR_E_INVAL   wrong level count, levels not rising, bad config (err says which)
@@ -106,7 +112,7 @@ double wdr_cal_map(const wdr_cal_result *res, long i, double y);
 int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int operator_id, uint8_t **out,
                         size_t *out_len, char *err, int errlen);
 
-#define WDR_LSQ_PARAMS 4
+#define WDR_LSQ_PARAMS 5
 
 /* Monotone interpolation helpers (exposed for tests). */
 int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n);

@@ -67,7 +67,7 @@ int wdr_fpn_frame(const wdr_cal_result *res, const wdr_cal_view *tab, int path, 
     for (long i = 0; i < np; i++) {
         if (rel_err)
             rel_err[i] = NAN;
-        if (flags && flags[i]) {
+        if ((flags && flags[i]) || (corr && tab->payload && wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width])) {
             out->excluded++;
             continue;
         }

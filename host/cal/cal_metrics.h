@@ -21,7 +21,8 @@ enum wdr_fpn_path {
 };
 
 /* Contrast error of one uniform frame at current x through a path. flags (may be NULL) marks
- * pixels left out; tab is needed for WDR_PATH_TABLE. rel_err (may be NULL) gets every pixel's
+ * pixels left out, and on the table path so do the table's own flags; tab is needed for
+ * WDR_PATH_TABLE. rel_err (may be NULL) gets every pixel's
  * (x_hat - x)/x (NAN for excluded pixels), for histograms. @retval WDR_OK, WDR_E_INVAL, WDR_E_NOMEM */
 int wdr_fpn_frame(const wdr_cal_result *res, const wdr_cal_view *tab, int path, const float *frame, double x,
                   const uint8_t *flags, double *rel_err, wdr_fpn_stats *out);

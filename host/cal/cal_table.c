@@ -45,7 +45,7 @@ static double code_for_current(const wdr_cal_result *res, long i, double x)
 {
     double lo = 0, hi = res->cfg.raw_max;
     int st;
-    for (int it = 0; it < 48; it++) {
+    for (int it = 0; it < 40; it++) {
         double mid = 0.5 * (lo + hi);
         if (wdr_cal_recover(res, i, mid, &st) > x)
             lo = mid;
@@ -61,6 +61,10 @@ static double pixel_response(const wdr_cal_result *res, long i, double x)
     const double *p = res->params + i * res->n_params;
     if (res->model == WDR_MODEL_LSQ)
         return code_for_current(res, i, x);
+    if (res->model == WDR_MODEL_SPLINE) {
+        wdr_pchip c;
+        return wdr_pchip_init(&c, res->nominal.curve.lx, p, res->nominal.curve.n) ? 0 : wdr_pchip_eval(&c, log(x));
+    }
     if (res->model == WDR_MODEL_SIMPLE3) {
         wdr_simple3 m = {p[0], p[1], p[2], p[3], res->x_scale};
         return wdr_simple3_eval(&m, x / res->x_scale);
@@ -69,19 +73,38 @@ static double pixel_response(const wdr_cal_result *res, long i, double x)
     return wdr_complex4_eval(&m, x / res->x_scale);
 }
 
+/* Sample codes for the map: exact pixel responses for the paper models; for LSQ (which models
+ * the inverse only) the two ends by bisection and the nominal curve's spacing in between. */
+static void sample_codes(const wdr_cal_result *res, long i, const double *xs, double *ys)
+{
+    if (res->model != WDR_MODEL_LSQ) {
+        for (int k = 0; k < MAP_SAMPLES; k++)
+            ys[k] = pixel_response(res, i, xs[k]);
+        return;
+    }
+    const wdr_nominal *n = &res->nominal;
+    double y0 = code_for_current(res, i, xs[0]), y1 = code_for_current(res, i, xs[MAP_SAMPLES - 1]);
+    double n0 = wdr_nominal_eval(n, xs[0]), n1 = wdr_nominal_eval(n, xs[MAP_SAMPLES - 1]);
+    for (int k = 0; k < MAP_SAMPLES; k++)
+        ys[k] = y1 + (wdr_nominal_eval(n, xs[k]) - n1) * (y0 - y1) / (n0 - n1);
+}
+
 /* Least-squares polynomial in u = 2y/raw_max - 1 through samples of the exact map over the
- * calibrated range, each weighted by 1/|dy/dlnx| so the residual is a contrast error. */
+ * table's range, each weighted by 1/|dy/dlnx| so the residual is a contrast error. */
 static int poly_coeffs(const wdr_cal_result *res, long i, int nc, double *c)
 {
-    double a[MAP_SAMPLES * WDR_CAL_MAX_COEFFS], t[MAP_SAMPLES], w[MAP_SAMPLES], rcond;
-    double lx0 = log(res->nominal.x_lo), lx1 = log(res->nominal.x_hi);
+    double a[MAP_SAMPLES * WDR_CAL_MAX_COEFFS], t[MAP_SAMPLES], w[MAP_SAMPLES], xs[MAP_SAMPLES], ys[MAP_SAMPLES];
+    double lx0 = log(res->nominal.x_lo), lx1 = log(res->nominal.x_hi), rcond;
+    int st;
+    for (int k = 0; k < MAP_SAMPLES; k++)
+        xs[k] = exp(lx0 + (lx1 - lx0) * k / (MAP_SAMPLES - 1));
+    sample_codes(res, i, xs, ys);
     for (int k = 0; k < MAP_SAMPLES; k++) {
-        double x = exp(lx0 + (lx1 - lx0) * k / (MAP_SAMPLES - 1));
-        double y = pixel_response(res, i, x), u = 2 * y / res->cfg.raw_max - 1, pw = 1;
+        double u = 2 * ys[k] / res->cfg.raw_max - 1, pw = 1, x = wdr_cal_recover(res, i, ys[k], &st);
         for (int j = 0; j < nc; j++, pw *= u)
             a[k * nc + j] = pw;
-        t[k] = wdr_cal_map(res, i, y);
-        w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, x), 1e-9);
+        t[k] = wdr_nominal_eval(&res->nominal, x);
+        w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, fmax(x, res->nominal.x_lo)), 1e-9);
     }
     if (wdr_lsq_solve(a, t, w, MAP_SAMPLES, nc, c, &rcond))
         return 0;

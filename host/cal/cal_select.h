@@ -1,0 +1,42 @@
+/* Choosing calibration currents, and judging a calibration on the frames of a source.
+ * The paper's dark-region artefacts came from arbitrary currents: here the currents are the set
+ * (from a grid of measured levels) that minimises the worst contrast error over the range. */
+#ifndef WDR_CAL_SELECT_H
+#define WDR_CAL_SELECT_H
+#include "cal_engine.h"
+#include "cal_fit.h"
+#include "cal_metrics.h"
+
+typedef struct wdr_cal_choice {
+    int n;                          /* levels chosen (the dark reference first, when used) */
+    int idx[WDR_CAL_MAX_LEVELS];    /* grid indices; -1 is the dark frame */
+    double amps[WDR_CAL_MAX_LEVELS];
+    double worst_pct;               /* worst contrast error (sd, %) over the grid in range */
+    double worst_at;                /* current where it happens (A) */
+    long tried;                     /* candidate sets evaluated */
+} wdr_cal_choice;
+
+/* Pick n_currents calibration currents from grid (levels rising; its dark frame is the dark
+ * reference when cfg->use_dark_ref) that minimise the worst contrast error over the grid levels
+ * in [x_lo, x_hi], judged on up to sample_pixels pixels spread over the array. Paper models
+ * search every subset (of a thinned grid when there are too many); LSQ and POLYMAP search
+ * log-spaced sets with their density warped towards either end.
+ * @retval WDR_OK, WDR_E_INVAL (too few grid levels, err says so), WDR_E_NOMEM, WDR_E_NUMERIC */
+int wdr_cal_select_currents(const wdr_cal_levels *grid, const wdr_cal_config *cfg, int n_currents, double x_lo,
+                            double x_hi, int sample_pixels, wdr_cal_choice *out, char *err, int errlen);
+
+/* Levels for wdr_cal_fit_array from a choice (dark reference included), sharing no memory
+ * with grid except the dark frame pointer. Free with wdr_cal_levels_free after clearing ->dark. */
+int wdr_cal_levels_from_choice(const wdr_cal_levels *grid, const wdr_cal_choice *c, wdr_cal_levels *out);
+
+/* The range of currents over which the array's median response carries contrast: where
+ * |dy/d ln x| >= min_slope codes (below that, 1 % of contrast is less than min_slope/100 codes).
+ * From the grid's medians; [*lo, *hi] within the grid. @retval WDR_OK, WDR_E_NUMERIC (nowhere) */
+int wdr_cal_informative_range(const wdr_cal_levels *grid, double min_slope, double *lo, double *hi);
+
+/* Contrast error through the three paths at n currents captured from src (one frame each).
+ * raw, model and table get n stats each (any may be NULL). @retval WDR_OK or the source's error */
+int wdr_cal_evaluate(const wdr_cal_result *res, const wdr_cal_view *tab, const wdr_cal_source *src,
+                     const double *amps, int n, wdr_fpn_stats *raw, wdr_fpn_stats *model, wdr_fpn_stats *table);
+
+#endif

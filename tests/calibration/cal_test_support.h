@@ -1,0 +1,57 @@
+/* Shared by the calibration and torture tests: cmocka helpers and a simulated chip in one call. */
+#ifndef CAL_TEST_SUPPORT_H
+#define CAL_TEST_SUPPORT_H
+#include "cal_engine.h"
+#include "cal_fit.h"
+#include "cal_metrics.h"
+#include "correct.h"
+#include "wdr_err.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef assert_double_equal
+#define assert_double_equal(a, b, eps)                                                                     \
+    do {                                                                                                   \
+        double a_ = (a), b_ = (b);                                                                         \
+        if (!(fabs(a_ - b_) <= (eps)))                                                                     \
+            fail_msg("%s = %.12g, expected %s = %.12g within %g", #a, a_, #b, b_, (double)(eps));          \
+    } while (0)
+#endif
+
+/* Every float of a table's coefficient planes is finite (the parser checks it too). */
+static inline int table_all_finite(const wdr_cal_view *v)
+{
+    for (int r = 0; r < v->h.height; r++)
+        for (int k = 0; k < v->h.n_coeffs; k++) {
+            const float *c = wdr_cal_row_coeffs(v, r, k);
+            for (int i = 0; i < v->h.width; i++)
+                if (!isfinite(c[i]))
+                    return 0;
+        }
+    return 1;
+}
+
+/* Run the float32 kernel over every raw code 0..raw_max for every pixel of row r: all outputs
+ * must be finite and within [0, out_max]. Returns the number of bad outputs. */
+static inline long kernel_sweep_bad(const wdr_cal_view *v)
+{
+    int w = v->h.width;
+    float *raw = malloc(sizeof(float) * (size_t)w), *out = malloc(sizeof(float) * (size_t)w);
+    uint16_t *raw16 = malloc(sizeof(uint16_t) * (size_t)w), *out16 = malloc(sizeof(uint16_t) * (size_t)w);
+    long bad = 0;
+    for (int r = 0; r < v->h.height; r++)
+        for (int code = 0; code <= v->h.raw_max; code += 7) {
+            for (int i = 0; i < w; i++)
+                raw[i] = (float)code, raw16[i] = (uint16_t)code;
+            if (wdr_correct_row_f32(v, r, raw, out) || wdr_correct_row(v, r, raw16, out16))
+                return -1;
+            for (int i = 0; i < w; i++)
+                bad += !isfinite(out[i]) || out[i] < 0 || out[i] > v->h.out_max;
+        }
+    free(raw), free(out), free(raw16), free(out16);
+    return bad;
+}
+
+#endif
