@@ -151,6 +151,8 @@ int main(int argc, char **argv)
     }
     hal_sim_set_exit_on_disconnect(o.once);
     watch_parent_pipe();
+    fprintf(stderr, "wdr-simboard: %s %ux%u serving wdrctl --device sim:%s (SIGTERM or Ctrl-C stops)\n", b.name,
+            b.width, b.height, o.socket);
     if (hal_init() != WDR_OK || (rc = hal_sim_serve()) != WDR_OK) {
         fprintf(stderr, "wdr-simboard: firmware did not start: %s\n", wdr_strerror(rc));
         hal_sim_teardown();
