@@ -210,7 +210,7 @@ int wdr_sim_set_ramp(wdr_sim *s, const double *t_s, const double *v, int n)
 
 int wdr_sim_set_uniform(wdr_sim *s, double amps)
 {
-    if (!isfinite(amps) || amps < 0)
+    if (!(amps >= 0 && amps <= SIM_MAX_AMPS))
         return WDR_E_INVAL;
     free(s->amps);
     s->amps = NULL;
@@ -224,7 +224,7 @@ int wdr_sim_set_photocurrent(wdr_sim *s, const float *amps)
     long n = (long)s->width * s->height;
     double lo = INFINITY, hi = 0;
     for (long i = 0; i < n; i++) {
-        if (!isfinite(amps[i]) || amps[i] < 0)
+        if (!(amps[i] >= 0 && amps[i] <= SIM_MAX_AMPS))
             return WDR_E_INVAL;
         lo = amps[i] < lo ? amps[i] : lo;
         hi = amps[i] > hi ? amps[i] : hi;

@@ -8,6 +8,7 @@
 
 #define SIM_Q_E 1.602176634e-19  /* electron charge, C */
 #define SIM_K_B 1.380649e-23     /* Boltzmann constant, J/K */
+#define SIM_MAX_AMPS 1.0         /* photocurrents above are refused (and would overflow the guess's float) */
 
 /* One node of a ramp table: a DAC step (held value v, ends at t) or, for the continuous ramp,
  * one sample of V_ref(t). a, ch, ch2 are the nominal device's charge terms at the M2 turn-off
@@ -32,7 +33,7 @@ typedef struct sim_ramp_table {
     uint16_t *guess;       /* first node crossed by a nominal pixel at the bucket's lower edge */
 } sim_ramp_table;
 
-#define SIM_GUESS_SHIFT 14 /* 512 buckets per octave of current: a 12-bit ramp has ~100 steps per octave */
+#define SIM_GUESS_SHIFT 12 /* 2048 buckets per octave of current: a 12-bit ramp has ~100 steps per octave */
 #define SIM_MAX_NODES 65535 /* guess entries are 16-bit */
 
 /* Per-pixel fixed pattern, float arrays of width*height. Charges are in the nominal

@@ -17,8 +17,8 @@ static inline double crossing_g(const sim_node *nd, const sim_px *p)
 /* The float bits of a positive current rise with it: their top bits are a cheap log2. */
 static inline int guess_node(const sim_ramp_table *tab, double amps)
 {
-    float f = amps < 1e30 ? (float)amps : 1e30f;
-    int32_t u; /* as a signed integer, a negative current sorts below every positive one */
+    float f = (float)amps; /* currents are at most 1 A (checked where they come in) */
+    int32_t u;             /* as a signed integer, a negative current sorts below every positive one */
     memcpy(&u, &f, sizeof u);
     int32_t b = (u >> SIM_GUESS_SHIFT) - (int32_t)tab->guess_base;
     b = b < 0 ? 0 : b;

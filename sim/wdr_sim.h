@@ -48,7 +48,8 @@ void wdr_sim_set_threads(wdr_sim *s, int n);              /* 0: all cores */
 /* The ramp the DAC plays next (copied). @retval WDR_OK, WDR_E_INVAL */
 int wdr_sim_set_lut(wdr_sim *s, const wdr_lut_view *lut);
 
-/* Illumination as photocurrent in amperes: one value for all pixels, or a width*height map. */
+/* Illumination as photocurrent in amperes: one value for all pixels, or a width*height map.
+ * @retval WDR_OK, WDR_E_INVAL (NaN, negative or above 1 A), WDR_E_NOMEM */
 int wdr_sim_set_uniform(wdr_sim *s, double amps);
 int wdr_sim_set_photocurrent(wdr_sim *s, const float *amps);
 
