@@ -71,6 +71,17 @@ void hal_sim_flash_reset(void);
 /* Direct view of the flash bytes, for invariant checks. */
 const uint8_t *hal_sim_flash_bytes(size_t *size);
 
+/* ---- USB link faults (callable from another thread while hal_sim_serve runs) ------------ */
+
+/* Lose the next n bytes the host sends, as if their packets vanished on the bus. */
+void hal_sim_usb_drop_rx(uint32_t n);
+
+/* Flip the k-th byte (1 = the next) that the board sends from now. */
+void hal_sim_usb_corrupt_tx(uint32_t k);
+
+/* Pull the cable: the host's connection closes at the board's next look at the link. */
+void hal_sim_usb_unplug(void);
+
 /* ---- Clock, frames and the loop --------------------------------------------------------- */
 
 uint64_t hal_sim_time_ns(void);

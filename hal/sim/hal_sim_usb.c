@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/socket.h>
@@ -21,7 +22,13 @@ static struct {
     int rx_armed;         /* post USB_RX on the next readable socket (re-armed by each read) */
     const uint8_t *tx;    /* transfer in flight, or NULL */
     size_t tx_len, tx_done;
+    uint64_t tx_total;    /* bytes sent since setup */
+    uint64_t corrupt_at;  /* tx_total + 1 of the byte to flip, 0: none */
 } U = {.listen_fd = -1, .client_fd = -1};
+
+/* Faults armed from other threads; the serving thread applies them. */
+static atomic_uint drop_rx_left, corrupt_tx_k;
+static atomic_int unplug_requested;
 
 static void set_nonblocking(int fd) { fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK); }
 
@@ -87,6 +94,10 @@ void sim_usb_teardown(void)
     }
     U.listen_fd = -1;
     U.path[0] = 0;
+    U.tx_total = U.corrupt_at = 0;
+    atomic_store(&drop_rx_left, 0);
+    atomic_store(&corrupt_tx_k, 0);
+    atomic_store(&unplug_requested, 0);
 }
 
 /* A reset cuts the bus: the host sees the board go away and must reconnect. */
@@ -96,10 +107,30 @@ int sim_usb_tx_pending(void) { return U.tx != NULL; }
 
 /* ---- Moving bytes ------------------------------------------------------------------------ */
 
+/* How many bytes to send next, and the byte to use if the first of them is the flipped one. */
+static size_t next_span(const uint8_t **p, uint8_t *flipped)
+{
+    unsigned k = atomic_exchange(&corrupt_tx_k, 0);
+    if (k)
+        U.corrupt_at = U.tx_total + k;
+    size_t n = U.tx_len - U.tx_done;
+    *p = U.tx + U.tx_done;
+    if (!U.corrupt_at || U.corrupt_at > U.tx_total + n)
+        return n;
+    if (U.corrupt_at > U.tx_total + 1)
+        return (size_t)(U.corrupt_at - U.tx_total - 1); /* up to the byte before it */
+    *flipped = (uint8_t)(**p ^ 0xFFu);
+    *p = flipped;
+    return 1;
+}
+
 static void continue_tx(void)
 {
     while (U.tx && U.tx_done < U.tx_len) {
-        ssize_t n = send(U.client_fd, U.tx + U.tx_done, U.tx_len - U.tx_done, MSG_NOSIGNAL | MSG_DONTWAIT);
+        const uint8_t *p;
+        uint8_t flipped;
+        size_t span = next_span(&p, &flipped);
+        ssize_t n = send(U.client_fd, p, span, MSG_NOSIGNAL | MSG_DONTWAIT);
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
             return;
         if (n < 0 && errno == EINTR)
@@ -108,7 +139,10 @@ static void continue_tx(void)
             drop_client(1);
             return;
         }
+        if (p == &flipped)
+            U.corrupt_at = 0;
         U.tx_done += (size_t)n;
+        U.tx_total += (uint64_t)n;
     }
     if (U.tx) {
         U.tx = NULL;
@@ -154,6 +188,8 @@ static void handle_client(short revents)
 
 void sim_usb_pump(int timeout_ms)
 {
+    if (atomic_exchange(&unplug_requested, 0))
+        drop_client(1);
     struct pollfd p[3];
     int n = build_pollset(p);
     if (poll(p, (nfds_t)n, timeout_ms) <= 0)
@@ -172,6 +208,18 @@ void sim_usb_pump(int timeout_ms)
 
 /* ---- The HAL functions ------------------------------------------------------------------- */
 
+/* Lose armed bytes from the front of what was just received; returns what is left. */
+static size_t drop_injected(uint8_t *buf, size_t n)
+{
+    unsigned left = atomic_load(&drop_rx_left);
+    size_t drop = left < n ? left : n;
+    if (!drop)
+        return n;
+    atomic_fetch_sub(&drop_rx_left, (unsigned)drop);
+    memmove(buf, buf + drop, n - drop);
+    return n - drop;
+}
+
 size_t hal_usb_max_transfer(void) { return USB_MAX_TRANSFER; }
 
 int hal_usb_read(uint8_t *buf, size_t cap)
@@ -184,7 +232,7 @@ int hal_usb_read(uint8_t *buf, size_t cap)
     for (;;) {
         ssize_t n = recv(U.client_fd, buf, cap, MSG_DONTWAIT);
         if (n > 0)
-            return (int)n;
+            return (int)drop_injected(buf, (size_t)n);
         if (n < 0 && errno == EINTR)
             continue;
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
@@ -210,3 +258,11 @@ int hal_usb_write(const uint8_t *buf, size_t len)
     continue_tx();
     return WDR_OK;
 }
+
+/* ---- Fault injection ------------------------------------------------------------------------ */
+
+void hal_sim_usb_drop_rx(uint32_t n) { atomic_store(&drop_rx_left, n); }
+
+void hal_sim_usb_corrupt_tx(uint32_t k) { atomic_store(&corrupt_tx_k, k); }
+
+void hal_sim_usb_unplug(void) { atomic_store(&unplug_requested, 1); }
