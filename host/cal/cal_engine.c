@@ -14,12 +14,19 @@ static int check_request(const wdr_cal_source *src, const double *amps, int n, i
                  WDR_CAL_MAX_LEVELS, m_avg);
         return WDR_E_INVAL;
     }
-    for (int k = 0; k < n; k++)
+    for (int k = 0; k < n; k++) {
         if (!isfinite(amps[k]) || amps[k] <= 0 || (k > 0 && !(amps[k] > amps[k - 1]))) {
             snprintf(err, (size_t)errlen, "calibration current %d = %g A must be positive and above the one before",
                      k, amps[k]);
             return WDR_E_INVAL;
         }
+        if (k > 0 && amps[k] < amps[k - 1] * (1 + WDR_CAL_MIN_SEPARATION)) {
+            snprintf(err, (size_t)errlen, "calibration currents %g A and %g A differ by %.2g %%: the fits cannot "
+                     "separate them (at least %g %% apart)", amps[k - 1], amps[k], 100 * (amps[k] / amps[k - 1] - 1),
+                     100 * WDR_CAL_MIN_SEPARATION);
+            return WDR_E_INVAL;
+        }
+    }
     return WDR_OK;
 }
 

@@ -20,7 +20,11 @@ typedef struct wdr_cal_source {
 /* Told after every captured frame: done of total frames, at the level's current. */
 typedef void (*wdr_cal_progress_fn)(void *ctx, int done, int total, double amps);
 
-/* Capture n levels (amps rising, > 0) and, with with_dark, a dark frame, m_avg frames each.
+/* Calibration currents closer than this (relative) are refused by wdr_cal_acquire: the
+ * response difference between them is below what the fits can use. */
+#define WDR_CAL_MIN_SEPARATION 0.01
+
+/* Capture n levels (amps rising, > 0, at least WDR_CAL_MIN_SEPARATION apart) and, with with_dark, a dark frame, m_avg frames each.
  * out->frames and out->dark are malloc'd (wdr_cal_levels_free).
  * @retval WDR_OK
  * @retval WDR_E_INVAL  bad counts or currents (err names which)

@@ -640,8 +640,16 @@ static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const doub
         n->y_top = !st ? dark_top(lv, med) : 0;
         if (!st && res->model == WDR_MODEL_LSQ && build_inverse_table(n))
             return WDR_E_NOMEM;
-    } else
+    } else {
         st = fit_paper_pixel(res, u, med, par);
+        if (st && res->cfg.use_dark_ref) {
+            /* the median's dark reading does not fit the model: its current scale keeps d = 0 */
+            wdr_cal_result plain = *res;
+            plain.cfg.use_dark_ref = 0;
+            memset(par, 0, sizeof par);
+            st = fit_paper_pixel(&plain, u + 1, med + 1, par);
+        }
+    }
     n->s3 = (wdr_simple3){par[0], par[1], par[2], par[3], res->x_scale};
     n->c4 = (wdr_complex4){par[0], par[1], par[2], par[3], par[4], res->x_scale, 0};
     if (st)

@@ -326,17 +326,30 @@ double wdr_complex4_eval(const wdr_complex4 *m, double u)
     return (m->p + m->q * t - m->r * t * t) / (1 + m->s * t);
 }
 
+/* dy/dt < 0 at a root t of the model for response y: sign of (1 + S t)(Q - 2 R t - S y). */
+static int falling_at(const wdr_complex4 *m, double t, double y)
+{
+    return (1 + m->s * t) * (m->q - 2 * m->r * t - m->s * y) < 0;
+}
+
 /* The two roots are C/q and q/R. Along a falling response the current rises, and which formula
  * gives it depends on the sign of S y - Q, which flips where a burning-out response (R > 0) passes
- * the Reinhard asymptote. The physical root is the smallest non-negative one (continuous with the
- * linear -C/B at low light); darker than dark, the one nearest zero. */
-static double physical_root(double r, double q, double c)
+ * the Reinhard asymptote; a tiny R of either sign puts the other root far away. The physical
+ * root is one where the model falls: the smallest non-negative such root, else the falling one
+ * nearest zero (darker than dark), else the root nearest zero. */
+static double physical_root(const wdr_complex4 *m, double q, double c, double y)
 {
-    double t1 = c / q, t2 = r != 0 ? q / r : t1;
-    if (!isfinite(t2))
-        return t1;
-    double lo = fmin(t1, t2), hi = fmax(t1, t2);
-    return lo >= 0 ? lo : hi >= 0 ? hi : hi;
+    double t[2] = {c / q, m->r != 0 ? q / m->r : c / q}, best = NAN;
+    for (int pass = 0; pass < 3 && isnan(best); pass++)
+        for (int k = 0; k < 2; k++) {
+            if (!isfinite(t[k]))
+                continue;
+            int ok = pass == 0 ? falling_at(m, t[k], y) && t[k] >= 0 : pass == 1 ? falling_at(m, t[k], y) : 1;
+            double key = pass == 0 ? t[k] : fabs(t[k]), cur = pass == 0 ? best : fabs(best);
+            if (ok && (isnan(best) || key < cur))
+                best = t[k];
+        }
+    return best;
 }
 
 int wdr_complex4_invert(const wdr_complex4 *m, double y, double u_cap, double *u, int *clamped)
@@ -354,7 +367,7 @@ int wdr_complex4_invert(const wdr_complex4 *m, double y, double u_cap, double *u
     double q = -0.5 * (b + copysign(sqrt(disc), b));
     if (q == 0)
         return WDR_FIT_FLAT;
-    double t = physical_root(m->r, q, c);
+    double t = physical_root(m, q, c, y);
     if (!isfinite(t))
         return WDR_FIT_NONFINITE;
     if (t - m->d > u_cap) {
