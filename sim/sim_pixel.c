@@ -171,9 +171,8 @@ void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, int need_t, doub
 double sim_sf_out(const wdr_sim *s, double sf_k, double v_g)
 {
     double g = s->nom.gamma, disc = g * g + 4.0 * (sf_k + v_g);
-    if (disc < g * g)
-        return -s->nom.phi2f;
-    double r = 0.5 * (-g + sqrt(disc));
+    disc = disc > g * g ? disc : g * g; /* below cut-off: r = 0, the output sits at -phi */
+    double r = 0.5 * (sqrt(disc) - g);
     return r * r - s->nom.phi2f;
 }
 
@@ -266,37 +265,56 @@ void sim_expose_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table
     }
 }
 
-/* Droop until the read, source follower, read noise: the ADC's code before rounding. */
-static inline double read_code(const wdr_sim *s, const sim_plan *plan, long i, double v_hold, double t_cross,
-                               double t_int, double t_after)
+/* Droop until the read, source follower, read noise and the ADC line for n pixels from i0:
+ * codes before rounding. Plain loops over arrays, so the compiler can vectorise them. */
+static void read_batch(const wdr_sim *s, const sim_plan *plan, long i0, int n, const float *v, const float *t,
+                       double t_int, double t_after, double *code)
 {
-    double vg = v_hold - plan->leak_v_per_s * (t_int - t_cross + t_after);
-    double vo = sim_sf_out(s, plan->fixed.sf_k[i * plan->fixed.stride], vg);
-    if (plan->on[WDR_FX_READ])
-        vo += s->board.read_noise_v * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_READ, (uint64_t)i));
-    return plan->adc_scale * vo + plan->adc_zero;
+    const sim_fixed_view *f = &plan->fixed;
+    double g = s->nom.gamma, g2 = g * g, phi = s->nom.phi2f, leak = plan->leak_v_per_s;
+    double sf_k[BATCH];
+    for (int j = 0; j < n; j++)
+        sf_k[j] = f->sf_k[(i0 + j) * f->stride];
+    for (int j = 0; j < n; j++) {
+        double vg = v[j] - leak * (t_int - t[j] + t_after);
+        double disc = g2 + 4.0 * (sf_k[j] + vg);
+        disc = disc > g2 ? disc : g2; /* below cut-off the follower sits at -phi, as in pixel.c */
+        double r = 0.5 * (sqrt(disc) - g);
+        code[j] = plan->adc_scale * (r * r - phi) + plan->adc_zero;
+    }
+    if (!plan->on[WDR_FX_READ])
+        return;
+    double volts = plan->adc_scale * s->board.read_noise_v;
+    for (int j = 0; j < n; j++)
+        code[j] += volts * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_READ, (uint64_t)(i0 + j)));
 }
 
-/* A code as stored: a float frame honours adc_quant and clipping; an integer frame always
- * holds a rounded in-range code. */
-static inline void store_code(const sim_plan *plan, double code, long x, float *out_f, uint16_t *out_u16)
+/* Codes as stored: a float frame honours adc_quant and clipping; an integer frame always
+ * holds rounded in-range codes. */
+static void store_batch(const sim_plan *plan, const double *code, int n, float *out_f, uint16_t *out_u16)
 {
+    double full = plan->adc_full;
     if (out_u16) {
-        code = clampd(code, 0.0, plan->adc_full);
-        out_u16[x] = (uint16_t)(int)(code + 0.5);
+        for (int j = 0; j < n; j++) {
+            double c = code[j] < 0 ? 0 : (code[j] > full ? full : code[j]);
+            out_u16[j] = (uint16_t)(int)(c + 0.5);
+        }
         return;
     }
-    if (plan->on[WDR_FX_ADC_QUANT])
-        code = round_half_up(code);
-    out_f[x] = (float)(plan->on[WDR_FX_CLIPPING] ? clampd(code, 0.0, plan->adc_full) : code);
+    for (int j = 0; j < n; j++) {
+        double c = plan->on[WDR_FX_ADC_QUANT] ? round_half_up(code[j]) : code[j];
+        out_f[j] = (float)(plan->on[WDR_FX_CLIPPING] ? clampd(c, 0.0, full) : c);
+    }
 }
 
 void sim_read_row(const wdr_sim *s, const sim_plan *plan, double t_int, int row, const float *v_hold,
                   const float *t_cross, double t_after, float *out_f, uint16_t *out_u16)
 {
-    for (int x = 0; x < s->width; x++) {
-        long i = (long)row * s->width + x;
-        store_code(plan, read_code(s, plan, i, v_hold[x], t_cross[x], t_int, t_after), x, out_f, out_u16);
+    double code[BATCH];
+    for (int x0 = 0; x0 < s->width; x0 += BATCH) {
+        int n = s->width - x0 < BATCH ? s->width - x0 : BATCH;
+        read_batch(s, plan, (long)row * s->width + x0, n, v_hold + x0, t_cross + x0, t_int, t_after, code);
+        store_batch(plan, code, n, out_f ? out_f + x0 : NULL, out_u16 ? out_u16 + x0 : NULL);
     }
 }
 
@@ -305,16 +323,19 @@ void sim_render_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table
 {
     sim_px p[BATCH];
     int k[BATCH], need_t = needs_cross_time(plan);
+    float v[BATCH], t[BATCH];
+    double code[BATCH];
     for (int x0 = 0; x0 < s->width; x0 += BATCH) {
         int n = s->width - x0 < BATCH ? s->width - x0 : BATCH;
         long i0 = (long)row * s->width + x0;
         batch_guess(s, plan, tab, i0, n, p, k);
         for (int j = 0; j < n; j++) {
-            double v, t;
-            pixel_hold(s, plan, tab, &p[j], k[j], i0 + j, need_t, &v, &t);
-            /* the same float rounding of v and t as expose + read_row, so both give the same bits */
-            double code = read_code(s, plan, i0 + j, (float)v, (float)t, tab->t_int, t_after);
-            store_code(plan, code, x0 + j, out_f, out_u16);
+            double vj, tj;
+            pixel_hold(s, plan, tab, &p[j], k[j], i0 + j, need_t, &vj, &tj);
+            v[j] = (float)vj; /* stored as float, as expose does: both paths give the same bits */
+            t[j] = (float)tj;
         }
+        read_batch(s, plan, i0, n, v, t, tab->t_int, t_after, code);
+        store_batch(plan, code, n, out_f ? out_f + x0 : NULL, out_u16 ? out_u16 + x0 : NULL);
     }
 }
