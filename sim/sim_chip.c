@@ -130,7 +130,6 @@ void wdr_sim_destroy(wdr_sim *s)
         free(arrays[k]);
     sim_table_free(&s->stepped);
     sim_table_free(&s->continuous);
-    free(s->lut_bytes);
     free(s);
 }
 
@@ -198,6 +197,8 @@ static int midpoint_ramp(wdr_sim *s)
 
 int wdr_sim_set_ramp(wdr_sim *s, const double *t_s, const double *v, int n)
 {
+    if (n < 0 || (n > 0 && (!t_s || !v)))
+        return WDR_E_INVAL;
     sim_table_free(&s->continuous);
     s->caller_ramp = n > 0;
     s->exposed = 0;

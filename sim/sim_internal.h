@@ -85,7 +85,6 @@ struct wdr_sim {
     int reference;
     /* ramp: the stepped LUT and the continuous ramp (from the caller or the LUT mid-points) */
     int have_lut;
-    uint8_t *lut_bytes;
     sim_ramp_table stepped, continuous;
     int caller_ramp;
     /* illumination */

@@ -36,9 +36,10 @@ static void do_row(render_job *job, int row)
         sim_render_row(s, &s->plan, tab, row, row * s->board.row_time_s, NULL, (uint16_t *)job->out + off);
 }
 
-static void *worker(void *arg)
+/* Rows are taken a few at a time from a shared counter; only the caller's thread reports
+ * progress, so the callback never runs concurrently with itself. */
+static void work(render_job *job, int reports)
 {
-    render_job *job = arg;
     wdr_sim *s = job->s;
     for (;;) {
         int row0 = atomic_fetch_add(&job->next_row, ROWS_PER_GRAB);
@@ -48,9 +49,14 @@ static void *worker(void *arg)
         for (int r = row0; r < row1; r++)
             do_row(job, r);
         int done = atomic_fetch_add(&job->rows_done, row1 - row0) + row1 - row0;
-        if (s->progress)
+        if (s->progress && reports && done < s->height)
             s->progress(s->progress_ctx, done, s->height);
     }
+}
+
+static void *worker(void *arg)
+{
+    work(arg, 0);
     return NULL;
 }
 
@@ -74,9 +80,11 @@ static int run_job(wdr_sim *s, enum job_kind kind, void *out)
     for (; started < n - 1; started++)
         if (pthread_create(&th[started], NULL, worker, &job))
             break; /* fewer threads is still correct: the caller's thread takes the rest */
-    worker(&job);
+    work(&job, 1);
     for (int k = 0; k < started; k++)
         pthread_join(th[k], NULL);
+    if (s->progress) /* the end, once, after every thread has finished */
+        s->progress(s->progress_ctx, s->height, s->height);
     return WDR_OK;
 }
 

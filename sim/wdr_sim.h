@@ -85,7 +85,7 @@ int wdr_sim_set_ramp(wdr_sim *s, const double *t_s, const double *v, int n);
 /* Mark the next frames as a noiseless reference: `auto` then skips shot, kTC and read noise. */
 void wdr_sim_set_reference(wdr_sim *s, int reference);
 
-/* Called from render threads as rows finish (rows_done rises; calls may come from any thread). */
+/* Called from the rendering caller's thread as rows finish (rows_done rises to rows_total). */
 void wdr_sim_set_progress(wdr_sim *s, void (*fn)(void *ctx, int rows_done, int rows_total), void *ctx);
 
 const wdr_board *wdr_sim_board(const wdr_sim *s);
