@@ -8,6 +8,7 @@
 #include "wdr_err.h"
 #include "wdr_lut.h"
 #include "wdrctl.h"
+#include <cJSON.h>
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
@@ -21,12 +22,12 @@
 
 enum opt_bit {
     OPT_OUT = 1 << 0, OPT_COUNT = 1 << 1, OPT_BITS = 1 << 2, OPT_RAW = 1 << 3, OPT_AVERAGE = 1 << 4,
-    OPT_NO_VERIFY = 1 << 5, OPT_SECONDS = 1 << 6, OPT_NEGATE = 1 << 7
+    OPT_NO_VERIFY = 1 << 5, OPT_SECONDS = 1 << 6, OPT_NEGATE = 1 << 7, OPT_JSON = 1 << 8
 };
 
 typedef struct dev_opts {
     const char *device, *out;
-    int timeout_ms, retries, count, bits, raw, average, no_verify, negate;
+    int timeout_ms, retries, count, bits, raw, average, no_verify, negate, json;
     double seconds;
     int n_args;
     char **args; /* positional arguments after the options */
@@ -38,7 +39,8 @@ static const struct option long_opts[] = {
     {"count", required_argument, NULL, 'n'},  {"bits", required_argument, NULL, 'b'},
     {"raw", no_argument, NULL, 'R'},          {"average", no_argument, NULL, 'A'},
     {"no-verify", no_argument, NULL, 'V'},    {"seconds", required_argument, NULL, 's'},
-    {"negate", no_argument, NULL, 'N'},       {"help", no_argument, NULL, 'h'},
+    {"negate", no_argument, NULL, 'N'},       {"json", no_argument, NULL, 'J'},
+    {"help", no_argument, NULL, 'h'},
     {NULL, 0, NULL, 0}};
 
 static int opt_allowed(int c, int allowed)
@@ -52,6 +54,7 @@ static int opt_allowed(int c, int allowed)
     case 'V': return allowed & OPT_NO_VERIFY;
     case 's': return allowed & OPT_SECONDS;
     case 'N': return allowed & OPT_NEGATE;
+    case 'J': return allowed & OPT_JSON;
     default: return 1;
     }
 }
@@ -92,6 +95,7 @@ static int set_opt(const char *cmd, int c, dev_opts *o)
     case 'A': o->average = 1; return EX_OK;
     case 'V': o->no_verify = 1; return EX_OK;
     case 'N': o->negate = 1; return EX_OK;
+    case 'J': o->json = 1; return EX_OK;
     default: return EX_USAGE;
     }
 }
@@ -235,38 +239,101 @@ int cmd_devices(int argc, char **argv)
     return EX_OK;
 }
 
-int cmd_info(int argc, char **argv)
+static void print_info_json(const char *device, const wdr_info *i)
 {
-    dev_opts o;
-    wdrctl_conn conn;
-    int rc = parse_opts(argc, argv, "info", 0, 0, 0, &o);
-    if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
-        return rc;
-    const wdr_info *i = &conn.c->info;
-    printf("device:        %s\nboard:         %s\nsensor id:     0x%08x\ngeometry:      %ux%u\n",
-           wdr_transport_name(conn.t), i->name, i->sensor_id, i->width, i->height);
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "device", device);
+    cJSON_AddStringToObject(o, "board", i->name);
+    cJSON_AddNumberToObject(o, "sensor_id", i->sensor_id);
+    cJSON_AddNumberToObject(o, "width", i->width);
+    cJSON_AddNumberToObject(o, "height", i->height);
+    cJSON_AddNumberToObject(o, "adc_bits", i->adc_bits);
+    cJSON_AddNumberToObject(o, "dac_bits", i->dac_bits);
+    cJSON_AddNumberToObject(o, "row_time_ns", i->row_time_ns);
+    cJSON_AddNumberToObject(o, "protocol_major", i->proto_major);
+    cJSON_AddNumberToObject(o, "protocol_minor", i->proto_minor);
+    cJSON_AddNumberToObject(o, "firmware_major", i->fw_major);
+    cJSON_AddNumberToObject(o, "firmware_minor", i->fw_minor);
+    cJSON_AddNumberToObject(o, "max_payload", i->max_payload);
+    cJSON_AddNumberToObject(o, "lut_capacity", i->lut_capacity);
+    cJSON_AddNumberToObject(o, "cal_capacity", i->cal_capacity);
+    cJSON_AddBoolToObject(o, "simulated", (i->caps & WDR_INFO_CAP_ILLUMINANT) != 0);
+    char *text = cJSON_Print(o);
+    printf("%s\n", text ? text : "{}");
+    free(text);
+    cJSON_Delete(o);
+}
+
+static void print_info_text(const char *device, const wdr_info *i)
+{
+    printf("device:        %s\nboard:         %s\nsensor id:     0x%08x\ngeometry:      %ux%u\n", device, i->name,
+           i->sensor_id, i->width, i->height);
     printf("adc/dac bits:  %u/%u\nrow time:      %u ns\nprotocol:      %u.%u\nfirmware:      %u.%u\n", i->adc_bits,
            i->dac_bits, i->row_time_ns, i->proto_major, i->proto_minor, i->fw_major, i->fw_minor);
     printf("max payload:   %u bytes\nLUT capacity:  %u bytes\nCAL capacity:  %u bytes\nsimulated:     %s\n",
            i->max_payload, i->lut_capacity, i->cal_capacity, (i->caps & WDR_INFO_CAP_ILLUMINANT) ? "yes" : "no");
+}
+
+int cmd_info(int argc, char **argv)
+{
+    dev_opts o;
+    wdrctl_conn conn;
+    int rc = parse_opts(argc, argv, "info", OPT_JSON, 0, 0, &o);
+    if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
+        return rc;
+    (o.json ? print_info_json : print_info_text)(wdr_transport_name(conn.t), &conn.c->info);
     wdrctl_disconnect(&conn);
     return EX_OK;
 }
 
 static const char *slot_name(uint8_t slot) { return slot == 0 ? "A" : slot == 1 ? "B" : "none"; }
 
-static void print_status(const wdr_status_report *s)
+static const char *const state_names[] = {"idle", "reset", "integrate", "readout"};
+
+static const char *upload_name(uint8_t kind)
 {
-    static const char *const states[] = {"idle", "reset", "integrate", "readout"};
-    printf("state:         %s\n", s->state < 4 ? states[s->state] : "?");
+    return kind == WDR_KIND_LUT ? "LUT" : kind == WDR_KIND_CAL ? "calibration" : "none";
+}
+
+static void print_status_text(const wdr_status_report *s)
+{
+    printf("state:         %s\n", s->state < 4 ? state_names[s->state] : "?");
     printf("LUT:           slot %s, seq %u, crc %08x\n", slot_name(s->lut_slot), s->lut_seq, s->lut_crc);
     printf("calibration:   slot %s, seq %u, crc %08x\n", slot_name(s->cal_slot), s->cal_seq, s->cal_crc);
-    printf("upload:        %s, %u bytes received\n",
-           s->upload_kind == WDR_KIND_LUT ? "LUT" : s->upload_kind == WDR_KIND_CAL ? "calibration" : "none",
-           s->upload_received);
+    printf("upload:        %s, %u bytes received\n", upload_name(s->upload_kind), s->upload_received);
     printf("frames:        %u\nintegration:   %u ns\nframe time:    %u ns\nboard time:    %llu ns\n", s->frames,
            s->integration_ns, s->frame_time_ns, (unsigned long long)s->time_ns);
     printf("rx skipped:    %u bytes\nrx bad CRC:    %u frames\n", s->rx_skipped, s->rx_bad_crc);
+}
+
+static void add_slot(cJSON *o, const char *name, uint8_t slot, uint32_t seq, uint32_t crc)
+{
+    char hex[16];
+    cJSON *t = cJSON_AddObjectToObject(o, name);
+    cJSON_AddStringToObject(t, "slot", slot_name(slot));
+    cJSON_AddNumberToObject(t, "seq", seq);
+    snprintf(hex, sizeof hex, "%08x", crc);
+    cJSON_AddStringToObject(t, "crc", hex);
+}
+
+static void print_status_json(const wdr_status_report *s)
+{
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "state", s->state < 4 ? state_names[s->state] : "?");
+    add_slot(o, "lut", s->lut_slot, s->lut_seq, s->lut_crc);
+    add_slot(o, "calibration", s->cal_slot, s->cal_seq, s->cal_crc);
+    cJSON_AddStringToObject(o, "upload", upload_name(s->upload_kind));
+    cJSON_AddNumberToObject(o, "upload_received", s->upload_received);
+    cJSON_AddNumberToObject(o, "frames", s->frames);
+    cJSON_AddNumberToObject(o, "integration_ns", s->integration_ns);
+    cJSON_AddNumberToObject(o, "frame_time_ns", s->frame_time_ns);
+    cJSON_AddNumberToObject(o, "board_time_ns", (double)s->time_ns);
+    cJSON_AddNumberToObject(o, "rx_skipped", s->rx_skipped);
+    cJSON_AddNumberToObject(o, "rx_bad_crc", s->rx_bad_crc);
+    char *text = cJSON_Print(o);
+    printf("%s\n", text ? text : "{}");
+    free(text);
+    cJSON_Delete(o);
 }
 
 int cmd_status(int argc, char **argv)
@@ -274,12 +341,12 @@ int cmd_status(int argc, char **argv)
     dev_opts o;
     wdrctl_conn conn;
     wdr_status_report s;
-    int rc = parse_opts(argc, argv, "status", 0, 0, 0, &o);
+    int rc = parse_opts(argc, argv, "status", OPT_JSON, 0, 0, &o);
     if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
     rc = wdr_client_status(conn.c, &s);
     if (rc == WDR_OK)
-        print_status(&s);
+        (o.json ? print_status_json : print_status_text)(&s);
     int code = rc == WDR_OK ? EX_OK : wdrctl_conn_fail(&conn, rc);
     wdrctl_disconnect(&conn);
     return code;

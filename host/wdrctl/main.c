@@ -16,8 +16,8 @@ static const wdrctl_command commands[] = {
     /* Board commands take [--device sim:/path.sock|usb[:BUS-ADDR]] (default $WDR_DEVICE),
      * [--timeout MS] [--retries N]. */
     {NULL, "devices", cmd_devices, "list wdrcam USB boards, and the simulated one given by --device"},
-    {NULL, "info", cmd_info, "board identity and protocol version"},
-    {NULL, "status", cmd_status, "state, active tables, counters"},
+    {NULL, "info", cmd_info, "[--json]  board identity and protocol version"},
+    {NULL, "status", cmd_status, "[--json]  state, active tables, counters"},
     {"lut", "upload", cmd_lut_upload, "LUT.bin [--no-verify]  store a LUT in flash and play it"},
     {"lut", "select", cmd_lut_select, "A|B|newest  play the LUT of a slot"},
     {"cal", "upload", cmd_cal_upload, "CAL.bin [--no-verify]  store a calibration table in flash and apply it"},

@@ -3,6 +3,7 @@
  * and a message naming what failed. Every child is bounded by a deadline. */
 #include "fake_board.h"
 #include "wdr_lut.h"
+#include <cJSON.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -25,17 +26,28 @@
 #define CHILD_DEADLINE_S 20
 
 static char dir[64];
-static char err_text[4096];
+static char err_text[4096], out_text[4096];
 static int case_no;
+
+static void slurp(const char *path, char *text, size_t cap)
+{
+    FILE *f = fopen(path, "r");
+    size_t got = f ? fread(text, 1, cap - 1, f) : 0;
+    text[got] = 0;
+    if (f)
+        fclose(f);
+}
 
 /* Run wdrctl with args (NULL-terminated) and no WDR_DEVICE; returns its exit code; its stderr
  * lands in err_text. */
 static int run_wdrctl(const char *const *args)
 {
-    char err_path[128];
+    char err_path[128], out_path[128];
     snprintf(err_path, sizeof err_path, "%s/stderr.txt", dir);
+    snprintf(out_path, sizeof out_path, "%s/stdout.txt", dir);
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_addopen(&fa, 2, err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     char *argv[32] = {(char *)WDRCTL_PATH};
     int n = 1;
@@ -58,11 +70,8 @@ static int run_wdrctl(const char *const *args)
         }
         usleep(5000);
     }
-    FILE *f = fopen(err_path, "r");
-    size_t got = f ? fread(err_text, 1, sizeof err_text - 1, f) : 0;
-    err_text[got] = 0;
-    if (f)
-        fclose(f);
+    slurp(err_path, err_text, sizeof err_text);
+    slurp(out_path, out_text, sizeof out_text);
     assert_true(WIFEXITED(status));
     return WEXITSTATUS(status);
 }
@@ -243,6 +252,30 @@ static void other_protocol_version(void **state)
     fake_board_stop(&b);
 }
 
+static void json_reports(void **state)
+{
+    (void)state;
+    fake_board b;
+    char addr[160];
+    start_board(&b, fake_script_good, addr, sizeof addr);
+    assert_int_equal(run_wdrctl((const char *[]){"info", "--json", "--device", addr, NULL}), EX_OK);
+    cJSON *info = cJSON_Parse(out_text);
+    assert_non_null(info);
+    assert_int_equal(cJSON_GetObjectItem(info, "width")->valuedouble, 16);
+    assert_string_equal(cJSON_GetObjectItem(info, "board")->valuestring, "fake");
+    cJSON_Delete(info);
+    fake_board_stop(&b);
+    start_board(&b, fake_script_good, addr, sizeof addr);
+    assert_int_equal(run_wdrctl((const char *[]){"status", "--json", "--device", addr, NULL}), EX_OK);
+    cJSON *st = cJSON_Parse(out_text);
+    assert_non_null(st);
+    assert_string_equal(cJSON_GetObjectItem(cJSON_GetObjectItem(st, "lut"), "slot")->valuestring, "A");
+    assert_int_equal(cJSON_GetObjectItem(st, "integration_ns")->valuedouble, 1000000);
+    cJSON_Delete(st);
+    fake_board_stop(&b);
+    assert_int_equal(run_wdrctl((const char *[]){"capture", "--json", "-o", "x.png", NULL}), EX_USAGE);
+}
+
 static void good_board_round_trip(void **state)
 {
     (void)state;
@@ -281,6 +314,7 @@ int main(void)
         cmocka_unit_test(unplugged_mid_capture),
         cmocka_unit_test(refused_upload),      cmocka_unit_test(bad_table_files),
         cmocka_unit_test(refused_requests),    cmocka_unit_test(other_protocol_version),
+        cmocka_unit_test(json_reports),
         cmocka_unit_test(good_board_round_trip),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
