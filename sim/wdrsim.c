@@ -247,8 +247,11 @@ static int write_image(const char *out, const wdr_board *b, const float *codes)
 
 static void show_progress(void *ctx, int done, int total)
 {
-    (void)ctx;
-    fprintf(stderr, "\rwdrsim: rendering %3d%%", (int)(100.0 * done / total));
+    int *last = ctx, pct = (int)(100.0 * done / total);
+    if (pct == *last)
+        return;
+    *last = pct;
+    fprintf(stderr, "\rwdrsim: rendering %3d%%", pct);
     if (done == total)
         fputc('\n', stderr);
 }
@@ -296,8 +299,9 @@ static int run(const options *o, const wdr_board *b, wdr_scene *sc, const wdr_lu
     wdr_sim_set_threads(s, o->threads);
     for (int k = 0; !rc && k < o->n_effects; k++)
         rc = apply_effect(s, o->effects[k]);
+    int last_pct = -1;
     if (!rc && progress_wanted())
-        wdr_sim_set_progress(s, show_progress, NULL);
+        wdr_sim_set_progress(s, show_progress, &last_pct);
     double seconds = 0;
     if (!rc)
         rc = render(s, o, frame_seed, codes, &seconds);
