@@ -27,10 +27,26 @@ static inline float poly(const float *const *c, int i, float u, const int n)
 
 /* ---- one loop per form and input type ---- */
 
+/* A power-of-two scale of at most 2^15 whose largest raw code fits: a shift, exact. */
+static int identity_shift(const wdr_cal_view *cal)
+{
+    for (int k = 0; k <= 15; k++)
+        if (cal->h.out_scale == (float)(1u << k))
+            return ((uint32_t)cal->h.raw_max << k) <= cal->h.out_max ? k : -1;
+    return -1;
+}
+
 static void identity_u16(const wdr_cal_view *cal, const uint16_t *raw, uint16_t *out)
 {
     const float s = cal->h.out_scale, m = (float)cal->h.out_max;
-    for (int i = 0; i < cal->h.width; i++)
+    const int w = cal->h.width, k = identity_shift(cal);
+    const uint16_t top = cal->h.raw_max;
+    if (k >= 0) { /* codes above raw_max cannot come from the ADC; clamp them anyway */
+        for (int i = 0; i < w; i++)
+            out[i] = (uint16_t)((raw[i] < top ? raw[i] : top) << k);
+        return;
+    }
+    for (int i = 0; i < w; i++) /* w is a local: out (uint16_t) could alias the header's fields */
         out[i] = (uint16_t)(to_output((float)raw[i], s, m) + 0.5f);
 }
 
@@ -39,7 +55,8 @@ static void moebius_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, u
     const float *p = wdr_cal_row_coeffs(cal, row, 0), *q = wdr_cal_row_coeffs(cal, row, 1),
                 *r = wdr_cal_row_coeffs(cal, row, 2);
     const float s = cal->h.out_scale, m = (float)cal->h.out_max;
-    for (int i = 0; i < cal->h.width; i++)
+    const int w = cal->h.width;
+    for (int i = 0; i < w; i++)
         out[i] = (uint16_t)(to_output(moebius((float)raw[i], p[i], q[i], r[i]), s, m) + 0.5f);
 }
 
@@ -49,7 +66,8 @@ static inline void poly_u16_n(const wdr_cal_view *cal, int row, const uint16_t *
     for (int k = 0; k < n; k++)
         c[k] = wdr_cal_row_coeffs(cal, row, k);
     const float s = cal->h.out_scale, m = (float)cal->h.out_max, a = cal->h.in_scale, b = cal->h.in_offset;
-    for (int i = 0; i < cal->h.width; i++)
+    const int w = cal->h.width;
+    for (int i = 0; i < w; i++)
         out[i] = (uint16_t)(to_output(poly(c, i, (float)raw[i] * a + b, n), s, m) + 0.5f);
 }
 
@@ -69,7 +87,8 @@ static void poly_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint
 static void identity_f32(const wdr_cal_view *cal, const float *raw, float *out)
 {
     const float s = cal->h.out_scale, m = (float)cal->h.out_max;
-    for (int i = 0; i < cal->h.width; i++)
+    const int w = cal->h.width;
+    for (int i = 0; i < w; i++)
         out[i] = to_output(raw[i], s, m);
 }
 
@@ -78,7 +97,8 @@ static void moebius_f32(const wdr_cal_view *cal, int row, const float *raw, floa
     const float *p = wdr_cal_row_coeffs(cal, row, 0), *q = wdr_cal_row_coeffs(cal, row, 1),
                 *r = wdr_cal_row_coeffs(cal, row, 2);
     const float s = cal->h.out_scale, m = (float)cal->h.out_max;
-    for (int i = 0; i < cal->h.width; i++)
+    const int w = cal->h.width;
+    for (int i = 0; i < w; i++)
         out[i] = to_output(moebius(raw[i], p[i], q[i], r[i]), s, m);
 }
 
@@ -89,7 +109,8 @@ static void poly_f32(const wdr_cal_view *cal, int row, const float *raw, float *
     for (int k = 0; k < n; k++)
         c[k] = wdr_cal_row_coeffs(cal, row, k);
     const float s = cal->h.out_scale, m = (float)cal->h.out_max, a = cal->h.in_scale, b = cal->h.in_offset;
-    for (int i = 0; i < cal->h.width; i++) {
+    const int w = cal->h.width;
+    for (int i = 0; i < w; i++) {
         float u = raw[i] * a + b, v = c[n - 1][i];
         for (int k = n - 2; k >= 0; k--)
             v = v * u + c[k][i];
@@ -101,12 +122,12 @@ static void poly_f32(const wdr_cal_view *cal, int row, const float *raw, float *
 
 static int next_flagged(const uint8_t *f, int i, int w)
 {
-    while (i + 4 <= w) { /* most rows have no flags: skip four at a time */
-        uint32_t word;
-        memcpy(&word, f + i, 4);
+    while (i + 8 <= w) { /* most rows have no flags: skip eight at a time */
+        uint64_t word;
+        memcpy(&word, f + i, 8);
         if (word)
             break;
-        i += 4;
+        i += 8;
     }
     while (i < w && !f[i])
         i++;

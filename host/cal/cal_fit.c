@@ -259,13 +259,36 @@ double wdr_nominal_log_slope(const wdr_nominal *n, double x)
 
 /* ---- bad pixels ---- */
 
-static int cmp_float(const void *a, const void *b)
+/* k-th smallest of v[0..n-1] by quickselect (v is reordered): medians of whole frames are
+ * the bulk of a closed-form calibration's time, and a full sort is not needed. */
+static float select_kth(float *v, long n, long k)
 {
-    float x = *(const float *)a, y = *(const float *)b;
-    return (x > y) - (x < y);
+    long lo = 0, hi = n - 1;
+    while (lo < hi) {
+        float pivot = v[lo + (hi - lo) / 2];
+        long i = lo, j = hi;
+        while (i <= j) {
+            while (v[i] < pivot)
+                i++;
+            while (v[j] > pivot)
+                j--;
+            if (i <= j) {
+                float t = v[i];
+                v[i++] = v[j];
+                v[j--] = t;
+            }
+        }
+        if (k <= j)
+            hi = j;
+        else if (k >= i)
+            lo = i;
+        else
+            return v[k];
+    }
+    return v[k];
 }
 
-/* Median of n values (copied: the caller's data stays in order). */
+/* Median of the finite values among n (copied into scratch: the caller's data stays in order). */
 static double median_of(const float *v, long n, float *scratch)
 {
     long m = 0;
@@ -274,8 +297,13 @@ static double median_of(const float *v, long n, float *scratch)
             scratch[m++] = v[i];
     if (m == 0)
         return 0;
-    qsort(scratch, (size_t)m, sizeof *scratch, cmp_float);
-    return m % 2 ? scratch[m / 2] : 0.5 * (scratch[m / 2 - 1] + scratch[m / 2]);
+    double hi = select_kth(scratch, m, m / 2);
+    if (m % 2)
+        return hi;
+    float lo = scratch[0]; /* after selection everything below m/2 is <= hi: take their maximum */
+    for (long i = 1; i < m / 2; i++)
+        lo = scratch[i] > lo ? scratch[i] : lo;
+    return 0.5 * (lo + hi);
 }
 
 /* Robust spread: 1.4826 * median absolute deviation. */

@@ -1,0 +1,170 @@
+/* Accuracy vs time for calibration: per model, the fit time per megapixel and the residual
+ * contrast error it leaves (worst over 31 currents, 1e-14..1e-8 A, on the simulator with default
+ * mismatch, static effects on, temporal noise off, no DAC/ADC quantisation); and for the
+ * N-current spline, how the number of calibration currents trades frames for accuracy.
+ * Prints tables; asserts nothing about speed. --quick uses a small chip. */
+#include "cal_select.h"
+#include "wdr_err.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+typedef struct setup {
+    wdr_sim *sim;
+    uint8_t *lut;
+    wdr_cal_simsrc ss;
+    wdr_cal_source src;
+    wdr_cal_levels grid;
+} setup;
+
+static int open_chip(setup *s, int w, int h, const char *op)
+{
+    wdr_board b;
+    char err[512];
+    wdr_board_defaults(&b);
+    b.width = (uint16_t)w, b.height = (uint16_t)h;
+    if (wdr_cal_sim_setup(&b, op, 3, 0, 0.06, &s->sim, &s->lut, err, sizeof err)) {
+        fprintf(stderr, "bench_cal: %s\n", err);
+        return 1;
+    }
+    wdr_sim_set_effect(s->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
+    s->ss = (wdr_cal_simsrc){s->sim, 0, 77};
+    s->src = (wdr_cal_source){w, h, wdr_cal_sim_capture, &s->ss};
+    double amps[37];
+    for (int k = 0; k < 37; k++)
+        amps[k] = 1e-14 * pow(10, k / 6.0);
+    if (wdr_cal_acquire(&s->src, amps, 37, 1, 1, NULL, NULL, &s->grid, err, sizeof err)) {
+        fprintf(stderr, "bench_cal: %s\n", err);
+        return 1;
+    }
+    return 0;
+}
+
+static void close_chip(setup *s)
+{
+    wdr_cal_levels_free(&s->grid);
+    wdr_sim_destroy(s->sim);
+    free(s->lut);
+}
+
+typedef struct result {
+    double fit_s_per_mp, table_s_per_mp, worst_model, worst_table;
+    long bad;
+} result;
+
+/* Fit on the timing chip, judge contrast on the accuracy chip (same currents). */
+static int run(setup *timing, setup *acc, wdr_cal_config *cfg, const wdr_cal_choice *ch, result *r)
+{
+    char err[512];
+    wdr_cal_levels lv;
+    wdr_cal_result res;
+    uint8_t *tb;
+    size_t tl;
+    wdr_cal_view tab;
+    long np = (long)timing->src.width * timing->src.height;
+    if (wdr_cal_levels_from_choice(&timing->grid, ch, &lv))
+        return 1;
+    double t0 = now_s();
+    int rc = wdr_cal_fit_array(&lv, cfg, &res, err, sizeof err);
+    double t1 = now_s();
+    rc = rc ? rc : wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err);
+    double t2 = now_s();
+    lv.dark = NULL;
+    wdr_cal_levels_free(&lv);
+    if (rc) {
+        fprintf(stderr, "bench_cal: %s\n", err);
+        return 1;
+    }
+    r->fit_s_per_mp = (t1 - t0) * 1e6 / np;
+    r->table_s_per_mp = (t2 - t1) * 1e6 / np;
+    free(tb);
+    wdr_cal_result_free(&res);
+    /* accuracy on the small chip */
+    if (wdr_cal_levels_from_choice(&acc->grid, ch, &lv) || wdr_cal_fit_array(&lv, cfg, &res, err, sizeof err) ||
+        wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err) || wdr_cal_parse(tb, tl, &tab))
+        return 1;
+    double x[31];
+    wdr_fpn_stats m[31], t[31];
+    for (int k = 0; k < 31; k++)
+        x[k] = cfg->range_lo * pow(cfg->range_hi / cfg->range_lo, (k + 0.37) / 31);
+    wdr_cal_evaluate(&res, &tab, &acc->src, x, 31, NULL, m, t);
+    r->worst_model = r->worst_table = 0;
+    for (int k = 0; k < 31; k++) {
+        r->worst_model = fmax(r->worst_model, m[k].sd_pct);
+        r->worst_table = fmax(r->worst_table, t[k].sd_pct);
+    }
+    r->bad = res.n_bad;
+    lv.dark = NULL;
+    wdr_cal_levels_free(&lv);
+    wdr_cal_result_free(&res);
+    free(tb);
+    return 0;
+}
+
+typedef struct model_row {
+    const char *name;
+    int model, form, n_coeffs, n_currents;
+} model_row;
+
+static const model_row rows[] = {
+    {"3-parameter (eq. 19-20), Moebius table", WDR_MODEL_SIMPLE3, WDR_FORM_MOEBIUS, 3, 3},
+    {"4-parameter (eq. 23-25), poly-5 table", WDR_MODEL_COMPLEX4, WDR_FORM_POLY, 5, 4},
+    {"LSQ physical basis, 19 currents, poly-5", WDR_MODEL_LSQ, WDR_FORM_POLY, 5, 19},
+    {"poly map, 19 currents, poly-5", WDR_MODEL_POLYMAP, WDR_FORM_POLY, 5, 19},
+    {"spline, 19 currents, poly-5 table", WDR_MODEL_SPLINE, WDR_FORM_POLY, 5, 19},
+};
+
+int main(int argc, char **argv)
+{
+    int quick = argc > 1 && !strcmp(argv[1], "--quick");
+    int tw = quick ? 64 : 320, th = quick ? 48 : 240;
+    setup timing, acc;
+    char err[512];
+    if (open_chip(&acc, 64, 48, "reinhard") || open_chip(&timing, tw, th, "reinhard"))
+        return 1;
+    printf("Calibration accuracy vs time (Reinhard, simulator, ADC/DAC quantisation off)\n");
+    printf("fit timed on %dx%d, contrast judged on 64x48 at 31 currents 1e-14..1e-8 A\n\n", tw, th);
+    printf("%-42s %8s %12s %12s %12s %12s %6s\n", "model", "frames", "fit s/MP", "table s/MP", "model err%",
+           "table err%", "bad");
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        wdr_cal_config cfg;
+        wdr_cal_choice ch;
+        result r;
+        wdr_cal_config_defaults(&cfg, rows[i].model);
+        cfg.form = rows[i].form, cfg.n_coeffs = rows[i].n_coeffs;
+        cfg.range_lo = 1e-14, cfg.range_hi = 1e-8;
+        if (wdr_cal_select_currents(&acc.grid, &cfg, rows[i].n_currents, 1e-14, 1e-8, 64, &ch, err, sizeof err) ||
+            run(&timing, &acc, &cfg, &ch, &r)) {
+            fprintf(stderr, "bench_cal: %s: %s\n", rows[i].name, err);
+            return 1;
+        }
+        printf("%-42s %8d %12.3f %12.3f %12.4f %12.4f %6ld\n", rows[i].name, ch.n, r.fit_s_per_mp,
+               r.table_s_per_mp, r.worst_model, r.worst_table, r.bad);
+    }
+    printf("\nNumber of calibration currents (spline model): frames to capture vs residual error\n");
+    printf("%8s %12s %12s %12s\n", "currents", "fit s/MP", "model err%", "table err%");
+    static const int counts[] = {5, 7, 10, 13, 19, 25};
+    for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++) {
+        wdr_cal_config cfg;
+        wdr_cal_choice ch;
+        result r;
+        wdr_cal_config_defaults(&cfg, WDR_MODEL_SPLINE);
+        cfg.range_lo = 1e-14, cfg.range_hi = 1e-8;
+        if (wdr_cal_select_currents(&acc.grid, &cfg, counts[i], 1e-14, 1e-8, 64, &ch, err, sizeof err) ||
+            run(&timing, &acc, &cfg, &ch, &r))
+            return 1;
+        printf("%8d %12.3f %12.4f %12.4f\n", counts[i], r.fit_s_per_mp, r.worst_model, r.worst_table);
+    }
+    close_chip(&acc);
+    close_chip(&timing);
+    return 0;
+}
