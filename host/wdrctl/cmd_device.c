@@ -17,6 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 /* ---- Options shared by the device commands ------------------------------------------------ */
 
@@ -27,7 +28,7 @@ enum opt_bit {
 
 typedef struct dev_opts {
     const char *device, *out;
-    int timeout_ms, retries, count, bits, raw, average, no_verify, negate, json;
+    int timeout_ms, retries, wait_ms, count, bits, raw, average, no_verify, negate, json;
     double seconds;
     int n_args;
     char **args; /* positional arguments after the options */
@@ -35,6 +36,7 @@ typedef struct dev_opts {
 
 static const struct option long_opts[] = {
     {"device", required_argument, NULL, 'd'}, {"timeout", required_argument, NULL, 't'},
+    {"wait", required_argument, NULL, 'w'},
     {"retries", required_argument, NULL, 'r'}, {"output", required_argument, NULL, 'o'},
     {"count", required_argument, NULL, 'n'},  {"bits", required_argument, NULL, 'b'},
     {"raw", no_argument, NULL, 'R'},          {"average", no_argument, NULL, 'A'},
@@ -87,6 +89,7 @@ static int set_opt(const char *cmd, int c, dev_opts *o)
     case 'd': o->device = optarg; return EX_OK;
     case 'o': o->out = optarg; return EX_OK;
     case 't': return parse_int(cmd, "--timeout", optarg, 1, 3600000, &o->timeout_ms);
+    case 'w': return parse_int(cmd, "--wait", optarg, 0, 3600000, &o->wait_ms);
     case 'r': return parse_int(cmd, "--retries", optarg, 0, 100, &o->retries);
     case 'n': return parse_int(cmd, "-n", optarg, 1, 65535, &o->count);
     case 'b': return parse_int(cmd, "--bits", optarg, 8, 16, &o->bits);
@@ -111,7 +114,7 @@ static int parse_opts(int argc, char **argv, const char *cmd, int allowed, int n
     optind = 1;
     opterr = 0;
     int c;
-    while ((c = getopt_long(argc, argv, ":d:t:r:o:n:b:s:", long_opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":d:t:r:o:n:b:s:w:", long_opts, NULL)) != -1) {
         if (c == '?' || c == ':' || c == 'h' || !opt_allowed(c, allowed))
             return wdrctl_fail(EX_USAGE, "%s: %s '%s' (see wdrctl --help)", cmd,
                                c == ':' ? "missing value for option" : "unknown or inapplicable option",
@@ -165,11 +168,24 @@ int wdrctl_exit_code(int rc, int status)
     }
 }
 
-int wdrctl_connect(const char *address, int timeout_ms, int retries, wdrctl_conn *conn)
+/* Open address; a board that is absent is looked for again every 50 ms for wait_ms (one that
+ * is starting: its socket not there yet, or not yet enumerated). */
+static int open_waiting(const char *address, int wait_ms, wdr_transport **t, char *err, int errlen)
+{
+    int64_t deadline = wdr_transport_now_ms() + wait_ms;
+    for (;;) {
+        int rc = wdr_transport_open(address, t, err, errlen);
+        if (rc != WDR_E_ABSENT || wdr_transport_now_ms() >= deadline)
+            return rc;
+        usleep(50000);
+    }
+}
+
+static int connect_waiting(const char *address, int timeout_ms, int retries, int wait_ms, wdrctl_conn *conn)
 {
     char err[320];
     memset(conn, 0, sizeof *conn);
-    int rc = wdr_transport_open(address, &conn->t, err, sizeof err);
+    int rc = open_waiting(address, wait_ms, &conn->t, err, sizeof err);
     if (rc != WDR_OK)
         return wdrctl_fail(wdrctl_exit_code(rc, 0), "%s", err);
     conn->c = calloc(1, sizeof *conn->c);
@@ -188,6 +204,11 @@ int wdrctl_connect(const char *address, int timeout_ms, int retries, wdrctl_conn
     return EX_OK;
 }
 
+int wdrctl_connect(const char *address, int timeout_ms, int retries, wdrctl_conn *conn)
+{
+    return connect_waiting(address, timeout_ms, retries, 0, conn);
+}
+
 int wdrctl_conn_fail(wdrctl_conn *conn, int rc)
 {
     return wdrctl_fail(wdrctl_exit_code(rc, conn->c->status), "%s", conn->c->err);
@@ -202,7 +223,7 @@ void wdrctl_disconnect(wdrctl_conn *conn)
 
 static int connect_opts(const dev_opts *o, wdrctl_conn *conn)
 {
-    return wdrctl_connect(o->device, o->timeout_ms, o->retries, conn);
+    return connect_waiting(o->device, o->timeout_ms, o->retries, o->wait_ms, conn);
 }
 
 /* ---- devices, info, status ----------------------------------------------------------------------- */

@@ -14,7 +14,7 @@ static const wdrctl_command commands[] = {
      "            [--l-avg X] [--l-max X] [--l-min X] [--scene-image HDR]"},
     {"lut", "plots", cmd_lut_plots, "[--board FILE] [--outdir DIR]  V_ref(t) and response of every operator"},
     /* Board commands take [--device sim:/path.sock|usb[:BUS-ADDR]] (default $WDR_DEVICE),
-     * [--timeout MS] [--retries N]. */
+     * [--timeout MS] [--retries N] [--wait MS] (wait for a board that is starting). */
     {NULL, "devices", cmd_devices, "list wdrcam USB boards, and the simulated one given by --device"},
     {NULL, "info", cmd_info, "[--json]  board identity and protocol version"},
     {NULL, "status", cmd_status, "[--json]  state, active tables, counters"},

@@ -7,7 +7,13 @@
 #include <cmocka.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <sysexits.h>
+#include <unistd.h>
+
+extern char **environ;
 
 #define BOARD WDR_SOURCE_DIR "/boards/sim-qvga/board.json"
 #define SCENE WDR_SOURCE_DIR "/sim/scenes/window.json"
@@ -39,8 +45,34 @@ static void bad_files(void **state)
     assert_int_equal(e2e_run(bad_socket, 20), EX_CANTCREAT);
 }
 
+/* wdrctl --wait finds a board that is still starting; wdr-simboard --once ends, cleanly, when
+ * that host leaves. */
+static void wait_and_once(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/wdr-once-XXXXXX", sock[128], addr[160];
+    assert_non_null(mkdtemp(dir));
+    snprintf(sock, sizeof sock, "%s/b.sock", dir);
+    snprintf(addr, sizeof addr, "sim:%s", sock);
+    char *board[] = {WDR_SIMBOARD_PATH, "--board", BOARD, "--scene", SCENE, "--socket", sock, "--once", NULL};
+    char *info[] = {WDRCTL_PATH, "info", "--wait", "15000", "--device", addr, NULL};
+    pid_t pid;
+    assert_int_equal(posix_spawn(&pid, WDR_SIMBOARD_PATH, NULL, NULL, board, environ), 0);
+    assert_int_equal(e2e_run(info, 30), EX_OK);
+    int status = -1;
+    for (int ms = 0; ms < 10000 && waitpid(pid, &status, WNOHANG) == 0; ms += 10)
+        usleep(10000);
+    if (!WIFEXITED(status)) {
+        kill(pid, SIGKILL);
+        waitpid(pid, &status, 0);
+    }
+    assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    rmdir(dir);
+}
+
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(bad_command_lines), cmocka_unit_test(bad_files)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(bad_command_lines), cmocka_unit_test(bad_files),
+                                       cmocka_unit_test(wait_and_once)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
