@@ -25,6 +25,10 @@ int cmd_capture(int argc, char **argv);
 int cmd_stream(int argc, char **argv);
 int cmd_sim_illuminant(int argc, char **argv);
 
+/* Calibration (cmd_cal.c). */
+int cmd_calibrate(int argc, char **argv);
+int cmd_fpn_report(int argc, char **argv);
+
 /* Print "wdrctl: " and a formatted message to stderr; returns code. */
 int wdrctl_fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
