@@ -5,6 +5,7 @@
 #include "pixel.h"
 #include "wdr_sim.h"
 #include <stdint.h>
+#include <string.h>
 
 #define SIM_Q_E 1.602176634e-19  /* electron charge, C */
 #define SIM_K_B 1.380649e-23     /* Boltzmann constant, J/K */
@@ -61,9 +62,21 @@ typedef struct sim_fixed_view {
     long stride;
 } sim_fixed_view;
 
+/* Effects `auto` can switch per photocurrent band (their size depends strongly on the
+ * current, and skipping them where they are small saves work per pixel). */
+#define SIM_BAND_SHIFT 20  /* 8 bands per octave of photocurrent */
+#define SIM_MAX_BANDS 512
+#define SIM_BAND_DARK 1u
+#define SIM_BAND_SHOT 2u
+#define SIM_BAND_KTC 4u
+
 /* Effects as they apply to one render (after auto has decided). */
 typedef struct sim_plan {
     sim_fixed_view fixed;
+    uint32_t band_base;                 /* float bits >> SIM_BAND_SHIFT of band 0 */
+    int n_bands;
+    int banded;                         /* 0: every band has band_mask[0] (no look-up per pixel) */
+    uint8_t band_mask[SIM_MAX_BANDS];   /* SIM_BAND_* bits that run in each band */
     int on[WDR_FX_COUNT];
     double leak_v_per_s; /* hold droop rate, V/s (0 if leakage is off) */
     double adc_scale, adc_zero; /* code = adc_scale * v_sf + adc_zero, before rounding */
@@ -120,7 +133,16 @@ void sim_read_row(const wdr_sim *s, const sim_plan *plan, double t_int, int row,
 void sim_render_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, int row, double t_after,
                     float *out_f, uint16_t *out_u16);
 
-/* sim_auto.c */
+/* sim_auto.c; band_of: the band of a photocurrent (same float-bits log2 as the guess table) */
+static inline int sim_band_of(const sim_plan *plan, double amps)
+{
+    float f = (float)amps;
+    int32_t u;
+    memcpy(&u, &f, sizeof u);
+    int32_t b = (u >> SIM_BAND_SHIFT) - (int32_t)plan->band_base;
+    b = b < 0 ? 0 : b;
+    return b >= plan->n_bands ? plan->n_bands - 1 : b;
+}
 void sim_plan_effects(wdr_sim *s, sim_plan *plan);
 
 /* sim_chip.c: reset charge change (nominal units) for an M1 threshold offset */

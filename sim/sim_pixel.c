@@ -195,15 +195,16 @@ double sim_adc(const wdr_board *b, double v, int quantise, int clip)
 }
 
 /* A pixel's inputs for this frame: fixed pattern, current and reset noise. */
-static inline sim_px pixel_inputs(const wdr_sim *s, const sim_plan *plan, long i)
+static inline sim_px pixel_inputs(const wdr_sim *s, const sim_plan *plan, long i, unsigned *band_mask)
 {
     const sim_fixed_view *f = &plan->fixed;
     long j = i * f->stride;
     double amps = s->amps ? s->amps[i] : s->uniform_amps;
-    if (plan->on[WDR_FX_DARK])
+    unsigned mask = *band_mask = plan->band_mask[plan->banded ? sim_band_of(plan, amps) : 0];
+    if (mask & SIM_BAND_DARK)
         amps += f->idark[j];
     sim_px p = {f->dq0[j], f->dvt2[j], amps * f->cinv[j]};
-    if (plan->on[WDR_FX_KTC])
+    if (mask & SIM_BAND_KTC)
         p.e0 += f->ktc_q[j] * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_KTC, (uint64_t)i));
     return p;
 }
@@ -223,11 +224,11 @@ static inline sim_cross add_shot_noise(const wdr_sim *s, const sim_plan *plan, c
 /* Stages one and two for a batch of pixels: inputs and the two guesses. Stage by stage, the
  * table look-ups of neighbouring pixels overlap instead of waiting on each other. */
 static inline void batch_guess(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, long i0, int n,
-                               sim_px *p, int *k)
+                               sim_px *p, int *k, unsigned *mask)
 {
     int offsets = plan->on[WDR_FX_MISMATCH] || plan->on[WDR_FX_KTC];
     for (int j = 0; j < n; j++) {
-        p[j] = pixel_inputs(s, plan, i0 + j);
+        p[j] = pixel_inputs(s, plan, i0 + j, &mask[j]);
         k[j] = guess_node(tab, p[j].ie);
     }
     for (int j = 0; offsets && j < n; j++)
@@ -236,11 +237,11 @@ static inline void batch_guess(const wdr_sim *s, const sim_plan *plan, const sim
 
 /* Stage three: the crossing, the held value, and shot noise on top. */
 static inline void pixel_hold(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, sim_px *p, int k,
-                              long i, int need_t, double *v, double *t)
+                              unsigned mask, long i, int need_t, double *v, double *t)
 {
     sim_cross c = settle(tab, p, k);
     hold_at(tab, p, c, need_t, v, t);
-    if (plan->on[WDR_FX_SHOT] && p->ie * *t > 0)
+    if ((mask & SIM_BAND_SHOT) && p->ie * *t > 0)
         hold_at(tab, p, add_shot_noise(s, plan, tab, i, p, c.k, *t), need_t, v, t);
 }
 
@@ -251,14 +252,15 @@ void sim_expose_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table
                     float *t_cross)
 {
     sim_px p[BATCH];
+    unsigned mask[BATCH]; /* not uint8_t: a char store may alias the plan and force reloads */
     int k[BATCH], need_t = needs_cross_time(plan);
     for (int x0 = 0; x0 < s->width; x0 += BATCH) {
         int n = s->width - x0 < BATCH ? s->width - x0 : BATCH;
         long i0 = (long)row * s->width + x0;
-        batch_guess(s, plan, tab, i0, n, p, k);
+        batch_guess(s, plan, tab, i0, n, p, k, mask);
         for (int j = 0; j < n; j++) {
             double v, t;
-            pixel_hold(s, plan, tab, &p[j], k[j], i0 + j, need_t, &v, &t);
+            pixel_hold(s, plan, tab, &p[j], k[j], mask[j], i0 + j, need_t, &v, &t);
             v_hold[x0 + j] = (float)v;
             t_cross[x0 + j] = (float)t;
         }
@@ -322,16 +324,17 @@ void sim_render_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table
                     float *out_f, uint16_t *out_u16)
 {
     sim_px p[BATCH];
+    unsigned mask[BATCH]; /* not uint8_t: a char store may alias the plan and force reloads */
     int k[BATCH], need_t = needs_cross_time(plan);
     float v[BATCH], t[BATCH];
     double code[BATCH];
     for (int x0 = 0; x0 < s->width; x0 += BATCH) {
         int n = s->width - x0 < BATCH ? s->width - x0 : BATCH;
         long i0 = (long)row * s->width + x0;
-        batch_guess(s, plan, tab, i0, n, p, k);
+        batch_guess(s, plan, tab, i0, n, p, k, mask);
         for (int j = 0; j < n; j++) {
             double vj, tj;
-            pixel_hold(s, plan, tab, &p[j], k[j], i0 + j, need_t, &vj, &tj);
+            pixel_hold(s, plan, tab, &p[j], k[j], mask[j], i0 + j, need_t, &vj, &tj);
             v[j] = (float)vj; /* stored as float, as expose does: both paths give the same bits */
             t[j] = (float)tj;
         }
