@@ -87,7 +87,34 @@ static void auto_agrees_with_on(const char *name)
     test_chip_close(&tc);
 }
 
-static void window(void **state) { (void)state; auto_agrees_with_on(scenes[0]); }
+static void window(void **state)
+{
+    (void)state;
+    auto_agrees_with_on(scenes[0]);
+}
+
+/* In the six-decade window scene dark current matters only for the dim pixels: auto runs it
+ * in the low-current bands alone, and says so. */
+static void dark_current_by_band(void **state)
+{
+    (void)state;
+    wdr_board b;
+    test_chip tc;
+    float amps[64 * 16];
+    test_board(&b, 64, 16);
+    test_chip_open(&tc, &b, "reinhard", 1);
+    for (int i = 0; i < 64 * 16; i++)
+        amps[i] = (float)(1e-14 * pow(1e6, (i % 64) / 63.0));
+    assert_int_equal(wdr_sim_set_photocurrent(tc.s, amps), WDR_OK);
+    for (int fx = 0; fx < WDR_FX_COUNT; fx++)
+        wdr_sim_set_effect(tc.s, fx, WDR_FX_AUTO);
+    assert_int_equal(wdr_sim_expose(tc.s, 1), WDR_OK);
+    const wdr_fx_report *r = wdr_sim_report(tc.s);
+    printf("dark: %s\n", r[WDR_FX_DARK].why);
+    assert_true(r[WDR_FX_DARK].ran);
+    assert_non_null(strstr(r[WDR_FX_DARK].why, "current bands (1e-14.."));
+    test_chip_close(&tc);
+}
 static void log_wedge(void **state) { (void)state; auto_agrees_with_on(scenes[1]); }
 static void step_chart(void **state) { (void)state; auto_agrees_with_on(scenes[2]); }
 static void uniform(void **state) { (void)state; auto_agrees_with_on(scenes[3]); }
@@ -130,6 +157,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(window),
+        cmocka_unit_test(dark_current_by_band),
         cmocka_unit_test(log_wedge),
         cmocka_unit_test(step_chart),
         cmocka_unit_test(uniform),
