@@ -5,8 +5,8 @@
 #include <math.h>
 #include <string.h>
 
-#define WALK_MAX 24
-#define JUMP_LINEAR_MAX_V 4e-3 /* below this DAC step, the jump level is linear in the charge terms */ /* past this many single steps, a guess was poor: finish by bisection */
+#define WALK_MAX 24            /* past this many single steps, a guess was poor: finish by bisection */
+#define JUMP_LINEAR_MAX_V 4e-3 /* below this DAC step, the jump level is linear in the charge terms */
 
 /* g <= 0: the pixel has crossed by node nd (its node voltage reached M2's turn-off level). */
 static inline double crossing_g(const sim_node *nd, const sim_px *p)
