@@ -357,6 +357,15 @@ static void report_banded(wdr_sim *s, const sim_plan *plan, int k, const band_su
                  fmin(hi, s->scene_i_max), bs->worst_skipped);
 }
 
+static int noise_varies(const sim_plan *plan)
+{
+    const unsigned noise = SIM_BAND_SHOT | SIM_BAND_KTC;
+    for (int b = 1; b < plan->n_bands; b++)
+        if ((plan->band_mask[b] & noise) != (plan->band_mask[0] & noise))
+            return 1;
+    return 0;
+}
+
 static void decide_bands(wdr_sim *s, const sim_ramp_table *tab, sim_plan *plan, double budget)
 {
     band_summary bs[3] = {{0, -1, -1, 0, 0}, {0, -1, -1, 0, 0}, {0, -1, -1, 0, 0}};
@@ -377,6 +386,13 @@ static void decide_bands(wdr_sim *s, const sim_ramp_table *tab, sim_plan *plan, 
             bs[k].last = runs ? b : bs[k].last;
             bs[k].runs += runs;
         }
+    }
+    if (bs[0].runs > 0 && bs[0].runs < plan->n_bands && !noise_varies(plan)) {
+        /* Skipping dark current saves an addition; looking up each pixel's band costs more.
+         * Only when a noise effect is skipped somewhere is banding worth it: else run it all over. */
+        for (int b = 0; b < plan->n_bands; b++)
+            plan->band_mask[b] |= SIM_BAND_DARK;
+        bs[0] = (band_summary){plan->n_bands, 0, plan->n_bands - 1, bs[0].worst, 0};
     }
     for (int b = 1; b < plan->n_bands; b++)
         plan->banded |= plan->band_mask[b] != plan->band_mask[0];

@@ -104,6 +104,7 @@ wdr_sim *wdr_sim_create(const wdr_board *b, uint64_t chip_seed)
     s->width = b->width;
     s->height = b->height;
     s->tolerance_lsb = 0.25;
+    s->plan_stale = 1;
     s->uniform_amps = b->i_center_a;
     s->scene_i_min = s->scene_i_max = b->i_center_a;
     for (int k = 0; k < WDR_FX_COUNT; k++)
@@ -135,8 +136,10 @@ void wdr_sim_destroy(wdr_sim *s)
 
 void wdr_sim_set_effect(wdr_sim *s, int fx, wdr_fx_mode mode)
 {
-    if (fx >= 0 && fx < WDR_FX_COUNT && mode >= WDR_FX_OFF && mode <= WDR_FX_AUTO)
+    if (fx >= 0 && fx < WDR_FX_COUNT && mode >= WDR_FX_OFF && mode <= WDR_FX_AUTO && s->mode[fx] != mode) {
         s->mode[fx] = mode;
+        s->plan_stale = 1;
+    }
 }
 
 wdr_fx_mode wdr_sim_get_effect(const wdr_sim *s, int fx)
@@ -144,9 +147,17 @@ wdr_fx_mode wdr_sim_get_effect(const wdr_sim *s, int fx)
     return fx >= 0 && fx < WDR_FX_COUNT ? s->mode[fx] : WDR_FX_OFF;
 }
 
-void wdr_sim_set_auto_tolerance(wdr_sim *s, double lsb) { s->tolerance_lsb = lsb > 0 ? lsb : 0; }
+void wdr_sim_set_auto_tolerance(wdr_sim *s, double lsb)
+{
+    s->tolerance_lsb = lsb > 0 ? lsb : 0;
+    s->plan_stale = 1;
+}
 void wdr_sim_set_threads(wdr_sim *s, int n) { s->threads = n > 0 ? n : 0; }
-void wdr_sim_set_reference(wdr_sim *s, int reference) { s->reference = reference != 0; }
+void wdr_sim_set_reference(wdr_sim *s, int reference)
+{
+    s->reference = reference != 0;
+    s->plan_stale = 1;
+}
 const wdr_board *wdr_sim_board(const wdr_sim *s) { return &s->board; }
 
 void wdr_sim_set_progress(wdr_sim *s, void (*fn)(void *ctx, int rows_done, int rows_total), void *ctx)
@@ -169,6 +180,7 @@ int wdr_sim_set_lut(wdr_sim *s, const wdr_lut_view *lut)
     s->stepped = stepped;
     s->have_lut = 1;
     s->exposed = 0;
+    s->plan_stale = 1;
     if (s->caller_ramp)
         return WDR_OK;
     return wdr_sim_set_ramp(s, NULL, NULL, 0);
@@ -202,6 +214,7 @@ int wdr_sim_set_ramp(wdr_sim *s, const double *t_s, const double *v, int n)
     sim_table_free(&s->continuous);
     s->caller_ramp = n > 0;
     s->exposed = 0;
+    s->plan_stale = 1;
     if (n > 0) {
         double t_int = s->have_lut ? s->stepped.t_int : t_s[n - 1];
         return sim_table_from_ramp(s, t_s, v, n, t_int, &s->continuous);
@@ -217,6 +230,7 @@ int wdr_sim_set_uniform(wdr_sim *s, double amps)
     s->amps = NULL;
     s->uniform_amps = amps;
     s->scene_i_min = s->scene_i_max = amps;
+    s->plan_stale = 1;
     return WDR_OK;
 }
 
@@ -235,6 +249,7 @@ int wdr_sim_set_photocurrent(wdr_sim *s, const float *amps)
     memcpy(s->amps, amps, (size_t)n * sizeof *amps);
     s->scene_i_min = lo;
     s->scene_i_max = hi;
+    s->plan_stale = 1;
     return WDR_OK;
 }
 

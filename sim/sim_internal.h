@@ -108,6 +108,7 @@ struct wdr_sim {
     int exposed;
     uint64_t frame_seed;
     sim_plan plan;
+    int plan_stale;        /* effects, tolerance, ramp or light changed since the plan was made */
     float *hold_v, *hold_t;
     wdr_fx_report report[WDR_FX_COUNT];
     wdr_sim_progress_fn progress;

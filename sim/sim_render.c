@@ -93,7 +93,9 @@ static int begin_frame(wdr_sim *s, uint64_t frame_seed)
     if (!s->have_lut)
         return WDR_E_NO_TABLE;
     s->frame_seed = frame_seed;
-    sim_plan_effects(s, &s->plan);
+    if (s->plan_stale) /* the plan does not depend on the frame seed: frames of one scene share it */
+        sim_plan_effects(s, &s->plan);
+    s->plan_stale = 0;
     return WDR_OK;
 }
 
