@@ -20,6 +20,7 @@ void wdr_cal_config_defaults(wdr_cal_config *c, int model)
     c->dead_frac = 0.5;
     c->hot_frac = 0.25;
     c->max_residual = 0.05;
+    c->tie_codes = 0.5;
 }
 
 /* ---- monotone cubic Hermite curve: spline slopes where they keep it monotone, else
@@ -626,17 +627,35 @@ static double dark_top(const wdr_cal_levels *lv, const double *med)
     return med[0] + b * lv->amps[0];
 }
 
-/* SPLINE: the pixel's own responses are the model; they must fall strictly. */
-static int fit_spline_pixel(const double *y, int n, double *par)
+/* A falling curve through quantised codes: where the response is flat the codes of neighbouring
+ * levels tie, or even rise by less than an LSB. Within the tie tolerance that is quantisation, and
+ * a tiny step keeps the curve strictly falling (its inverse then lands inside the tie, which is
+ * all the data can tell); a larger rise is a reversed pixel. */
+#define TIE_STEP 1e-5
+
+static int falling_repair(const double *y, int n, double tie, double *out)
 {
     for (int k = 0; k < n; k++) {
         if (!isfinite(y[k]))
             return WDR_FIT_NONFINITE;
-        if (k > 0 && !(y[k] < y[k - 1]))
-            return y[k] == y[k - 1] ? WDR_FIT_FLAT : WDR_FIT_REVERSED;
-        par[k] = y[k];
+        out[k] = y[k];
+        if (k > 0 && y[k] > y[k - 1] + tie)
+            return WDR_FIT_REVERSED;
+        if (k > 0 && out[k] > out[k - 1] - TIE_STEP)
+            out[k] = out[k - 1] - TIE_STEP;
     }
     return WDR_FIT_OK;
+}
+
+/* SPLINE: the pixel's own responses are the model. Where the array's response falls clearly
+ * between two levels, a pixel that hardly moves there is a stuck stretch, not quantisation. */
+static int fit_spline_pixel(const double *y, const double *med, int n, double tie, double *par)
+{
+    int st = falling_repair(y, n, tie, par);
+    for (int k = 1; !st && k < n; k++)
+        if (med[k - 1] - med[k] > 8 * tie && y[k - 1] - y[k] < 0.1 * (med[k - 1] - med[k]))
+            st = WDR_FIT_FLAT;
+    return st;
 }
 
 static double spline_recover(const wdr_cal_result *res, const double *par, double y)
@@ -661,11 +680,13 @@ static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const doub
     }
     int st = WDR_FIT_OK;
     if (is_curve_model(res->model)) {
-        st = wdr_pchip_init(&n->curve, lx, med, lv->n) ? WDR_FIT_REVERSED : WDR_FIT_OK;
-        for (int k = 1; !st && k < lv->n; k++)
-            if (!(med[k] < med[k - 1]))
-                st = WDR_FIT_REVERSED; /* the nominal must fall strictly to have an inverse */
-        n->y_top = !st ? dark_top(lv, med) : 0;
+        double falling[WDR_CAL_MAX_LEVELS] = {0};
+        st = falling_repair(med, lv->n, res->cfg.tie_codes, falling); /* strictly falling: invertible */
+        if (!st && !(falling[0] - falling[lv->n - 1] > lv->n * TIE_STEP))
+            st = WDR_FIT_FLAT;
+        if (!st)
+            st = wdr_pchip_init(&n->curve, lx, falling, lv->n) ? WDR_FIT_REVERSED : WDR_FIT_OK;
+        n->y_top = !st ? dark_top(lv, falling) : 0;
         if (!st && res->model == WDR_MODEL_LSQ && build_inverse_table(n))
             return WDR_E_NOMEM;
     } else {
@@ -766,7 +787,7 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
         else if (res->model == WDR_MODEL_POLYMAP)
             st = fit_polymap_pixel(res, y, med, w, lv->n, par);
         else if (res->model == WDR_MODEL_SPLINE)
-            st = fit_spline_pixel(y, lv->n, par);
+            st = fit_spline_pixel(y, med, lv->n, res->cfg.tie_codes, par);
         else
             st = fit_paper_pixel(res, u, y, par);
         if (st) {

@@ -55,6 +55,8 @@ typedef struct wdr_cal_config {
     double stuck_frac, dead_frac, hot_frac; /* bad-pixel thresholds (see cal_fit.c) */
     double max_residual;/* LSQ/POLYMAP: largest rms relative residual at the calibration currents */
     double range_lo, range_hi; /* currents the table must serve (A); 0: the calibration currents' span */
+    double tie_codes;   /* SPLINE/LSQ curves: neighbouring levels closer than this are quantisation ties
+                           (default 0.5, half an ADC code; about 1e-3 for unquantised data) */
 } wdr_cal_config;
 
 void wdr_cal_config_defaults(wdr_cal_config *c, int model);

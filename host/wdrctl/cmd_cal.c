@@ -27,7 +27,7 @@
 #define MARGIN_V 0.06
 
 typedef struct cal_opts {
-    const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device;
+    const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
     int select_n, frames, adc, dac, upload, json, sample;
     unsigned long seed;
 } cal_opts;
@@ -64,6 +64,7 @@ static int set_option(int c, const char *arg, cal_opts *o)
     case 'o': o->out = arg; return EX_OK;
     case 'O': o->outdir = arg; return EX_OK;
     case 'd': o->device = arg; return EX_OK;
+    case 'l': o->lut = arg; return EX_OK;
     case 'u': o->upload = 1; return EX_OK;
     case 'j': o->json = 1; return EX_OK;
     case 'n': return parse_count("--select", arg, 2, WDR_CAL_MAX_LEVELS - 1, &o->select_n);
@@ -87,6 +88,7 @@ static int parse_options(int argc, char **argv, const char *cmd, cal_opts *o)
         {"select", required_argument, NULL, 'n'},   {"frames", required_argument, NULL, 'M'},
         {"sample", required_argument, NULL, 'P'},   {"adc", required_argument, NULL, 'a'},
         {"dac", required_argument, NULL, 'D'},      {"seed", required_argument, NULL, 's'},
+        {"lut", required_argument, NULL, 'l'},
         {NULL, 0, NULL, 0}};
     *o = (cal_opts){.op_name = "reinhard", .frames = 4, .adc = 1, .dac = 1, .sample = 256, .seed = 1};
     optind = 1;
@@ -269,6 +271,34 @@ static int upload_passthrough(device_src *d)
     return rc;
 }
 
+/* The LUT the board will image with, continued past its last code by the calibration margin
+ * (so that pixels with high thresholds cross at the dimmest currents), stored on the board. */
+static int upload_lut_with_margin(device_src *d, const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return wdrctl_fail(EX_NOINPUT, "%s: cannot read LUT", path);
+    uint8_t *buf = malloc(WDR_LUT_HEADER_SIZE + (size_t)WDR_LUT_MAX_ENTRIES * WDR_LUT_ENTRY_SIZE), *ext = NULL;
+    size_t len = buf ? fread(buf, 1, WDR_LUT_HEADER_SIZE + (size_t)WDR_LUT_MAX_ENTRIES * WDR_LUT_ENTRY_SIZE, f) : 0,
+           ext_len;
+    fclose(f);
+    char err[512];
+    double added_s, done_v;
+    int rc = buf ? wdr_cal_lut_extend(buf, len, MARGIN_V, 1.0, &ext, &ext_len, &added_s, &done_v, err, sizeof err)
+                 : WDR_E_NOMEM;
+    free(buf);
+    if (rc)
+        return wdrctl_fail(EX_DATAERR, "%s: %s", path, rc == WDR_E_NOMEM ? "out of memory" : err);
+    wdr_commit_reply reply;
+    rc = wdr_client_upload(d->conn.c, WDR_KIND_LUT, ext, ext_len, NULL, NULL, &reply);
+    free(ext);
+    if (rc)
+        return wdrctl_conn_fail(&d->conn, rc);
+    fprintf(stderr, "wdrctl: %s stored with a %.0f mV calibration margin (+%.3g s of integration)\n", path,
+            done_v * 1e3, added_s);
+    return EX_OK;
+}
+
 static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
 {
     memset(d, 0, sizeof *d);
@@ -281,6 +311,8 @@ static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
     if (!d->codes)
         return wdrctl_fail(EX_OSERR, "out of memory for a %ux%u frame", in->width, in->height);
     d->simulated = wdr_client_set_illuminant(d->conn.c, 0) == WDR_OK;
+    if (o->lut && (rc = upload_lut_with_margin(d, o->lut)) != EX_OK)
+        return rc;
     int r = upload_passthrough(d);
     if (r)
         return wdrctl_conn_fail(&d->conn, r);
@@ -475,8 +507,8 @@ int cmd_calibrate(int argc, char **argv)
         return rc;
     if (!o.out && !o.upload)
         return wdrctl_fail(EX_USAGE, "calibrate: give -o CAL.bin and/or --upload");
-    if (o.upload && !o.device)
-        return wdrctl_fail(EX_USAGE, "calibrate: --upload needs --device");
+    if ((o.upload || o.lut) && !o.device)
+        return wdrctl_fail(EX_USAGE, "calibrate: --upload and --lut need --device");
     cal_run r = {0};
     wdr_cal_config_defaults(&r.cfg, model);
     if (o.device) {
@@ -499,6 +531,7 @@ int cmd_calibrate(int argc, char **argv)
     if ((rc = load_board(o.board, &b)) != EX_OK || (rc = open_sim(&o, &b, &c)) != EX_OK)
         return rc;
     r.cfg.raw_max = (1u << b.adc_bits) - 1u;
+    r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
     rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model);
     free_run(&r);
@@ -539,6 +572,7 @@ static int report_model(report *rp, model_report *m)
     wdr_cal_config_defaults(&r->cfg, m->model);
     r->cfg.raw_max = (1u << rp->b.adc_bits) - 1u;
     r->cfg.range_lo = rp->lo, r->cfg.range_hi = rp->hi;
+    r->cfg.tie_codes = rp->o.adc ? r->cfg.tie_codes : 1e-3;
     r->lo = rp->lo, r->hi = rp->hi;
     if (wdr_cal_select_currents(&rp->grid, &r->cfg, default_currents(m->model), rp->lo, rp->hi, rp->o.sample,
                                 &r->choice, err, sizeof err))

@@ -29,7 +29,8 @@ static const wdrctl_command commands[] = {
     /* Calibration (cmd_cal.c): the simulator directly, or a board with --device. */
     {NULL, "calibrate", cmd_calibrate,
      "[--model spline|simple3|complex4|lsq|polymap] [--currents A,B,..|--levels-file F|--select N] [--frames M]\n"
-     "            [--board FILE] [--operator NAME] [--adc on|off] [--dac on|off] [--device ADDR [--upload]]\n"
+     "            [--board FILE] [--operator NAME] [--adc on|off] [--dac on|off]\n"
+     "            [--device ADDR [--lut LUT.bin] [--upload]]\n"
      "            -o CAL.bin [--json]"},
     {"fpn", "report", cmd_fpn_report,
      "--outdir DIR [--models spline,simple3,complex4] [--board FILE] [--operator NAME] [--adc on|off]\n"
