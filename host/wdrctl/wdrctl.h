@@ -14,6 +14,7 @@ typedef struct wdrctl_command {
 int cmd_operators(int argc, char **argv);
 int cmd_lut_build(int argc, char **argv);
 int cmd_lut_plots(int argc, char **argv);
+int cmd_tonemap(int argc, char **argv);
 int cmd_devices(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_status(int argc, char **argv);

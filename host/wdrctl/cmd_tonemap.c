@@ -1,0 +1,139 @@
+/* wdrctl tonemap: the scene tone-mapped in software, and a capture beside it. */
+#include "board.h"
+#include "image_io.h"
+#include "operators.h"
+#include "ramp.h"
+#include "tonemap.h"
+#include "wdr_err.h"
+#include "wdr_scene.h"
+#include "wdrctl.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct tonemap_opts {
+    const char *board, *scene, *op_name, *capture, *out, *side;
+    const char *params[16];
+    int n_params;
+} tonemap_opts;
+
+static int parse_tonemap(int argc, char **argv, tonemap_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    o->op_name = "reinhard";
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        const char **slot = !strcmp(a, "--board")        ? &o->board
+                            : !strcmp(a, "--scene")      ? &o->scene
+                            : !strcmp(a, "--operator")   ? &o->op_name
+                            : !strcmp(a, "--capture")    ? &o->capture
+                            : !strcmp(a, "-o")           ? &o->out
+                            : !strcmp(a, "--side-by-side") ? &o->side
+                            : !strcmp(a, "--param") && o->n_params < 16 ? &o->params[o->n_params++]
+                                                                        : NULL;
+        if (!slot || !v)
+            return wdrctl_fail(EX_USAGE, "tonemap: bad or incomplete argument '%s'", a);
+        *slot = v;
+        i++;
+    }
+    if (!o->scene || !o->out)
+        return wdrctl_fail(EX_USAGE, "tonemap needs --scene FILE and -o OUT.png");
+    return EX_OK;
+}
+
+static int load_inputs(const tonemap_opts *o, wdr_board *b, wdr_scene *sc, wdr_operator *op)
+{
+    char path[1024], err[512];
+    wdr_board_defaults(b);
+    wdr_board_path(o->board ? o->board : WDR_DEFAULT_BOARD, path, sizeof path);
+    int rc = wdr_board_load(path, b, err, sizeof err);
+    if (!rc)
+        rc = wdr_scene_load(o->scene, b, sc, err, sizeof err);
+    wdr_scene_stats st;
+    wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    if (!rc)
+        rc = wdr_operator_init(op, o->op_name, &st, err, sizeof err);
+    for (int i = 0; !rc && i < o->n_params; i++)
+        rc = wdr_operator_set_param(op, o->params[i], err, sizeof err);
+    if (rc)
+        return wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_DATAERR, "%s", err);
+    return EX_OK;
+}
+
+/* The conventional pipeline: world luminance through the operator, then display gamma. */
+static void software_image(const wdr_board *b, const wdr_scene *sc, const wdr_operator *op, uint8_t *out)
+{
+    for (long i = 0; i < (long)sc->width * sc->height; i++)
+        out[i] = wdr_display_to_u8(wdr_operator_eval(op, sc->amps[i] * b->lum_per_amp));
+}
+
+static int capture_image(const char *path, const wdr_board *b, int w, int h, uint8_t *out)
+{
+    char err[512];
+    float *codes;
+    int cw, ch, rc = wdr_pfm_read(path, &codes, &cw, &ch, err, sizeof err);
+    if (rc)
+        return wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_DATAERR, "%s", err);
+    if (cw != w || ch != h) {
+        free(codes);
+        return wdrctl_fail(EX_DATAERR, "%s: field 'size': %dx%d, the scene is %dx%d", path, cw, ch, w, h);
+    }
+    wdr_ideal_pixel px;
+    wdr_ideal_pixel_init(b, &px);
+    for (long i = 0; i < (long)w * h; i++)
+        out[i] = wdr_display_to_u8(wdr_code_to_display(&px, b, codes[i]));
+    free(codes);
+    return EX_OK;
+}
+
+static int write_outputs(const tonemap_opts *o, int w, int h, const uint8_t *soft, const uint8_t *cap)
+{
+    char err[512];
+    uint16_t *grey = malloc(sizeof *grey * (size_t)w * h);
+    uint8_t *rgb = cap ? malloc((size_t)3 * (2 * w + 4) * h) : NULL;
+    int rc = grey && (!cap || rgb) ? WDR_OK : WDR_E_NOMEM;
+    for (long i = 0; !rc && i < (long)w * h; i++)
+        grey[i] = soft[i];
+    if (!rc)
+        rc = wdr_png_write_gray(o->out, grey, w, h, 8, err, sizeof err);
+    if (!rc && cap) {
+        wdr_side_by_side(cap, soft, w, h, rgb);
+        rc = wdr_png_write_rgb(o->side, rgb, 2 * w + 4, h, err, sizeof err);
+    }
+    free(grey);
+    free(rgb);
+    return rc ? wdrctl_fail(EX_CANTCREAT, "%s", rc == WDR_E_NOMEM ? "out of memory" : err) : EX_OK;
+}
+
+int cmd_tonemap(int argc, char **argv)
+{
+    tonemap_opts o;
+    wdr_board b;
+    wdr_scene sc = {0};
+    static wdr_operator op;
+    int rc = parse_tonemap(argc, argv, &o);
+    if (rc == EX_OK && !o.capture != !o.side)
+        rc = wdrctl_fail(EX_USAGE, "tonemap: --capture CAP.pfm and --side-by-side OUT.png go together");
+    if (rc == EX_OK)
+        rc = load_inputs(&o, &b, &sc, &op);
+    if (rc != EX_OK)
+        return rc;
+    long n = (long)sc.width * sc.height;
+    uint8_t *soft = malloc((size_t)n), *cap = o.capture ? malloc((size_t)n) : NULL;
+    if (!soft || (o.capture && !cap))
+        rc = wdrctl_fail(EX_OSERR, "out of memory");
+    if (rc == EX_OK) {
+        software_image(&b, &sc, &op, soft);
+        if (o.capture)
+            rc = capture_image(o.capture, &b, sc.width, sc.height, cap);
+    }
+    if (rc == EX_OK)
+        rc = write_outputs(&o, sc.width, sc.height, soft, cap);
+    if (rc == EX_OK)
+        printf("wrote %s%s%s\n", o.out, o.side ? " and " : "", o.side ? o.side : "");
+    free(soft);
+    free(cap);
+    wdr_scene_free(&sc);
+    return rc;
+}
