@@ -77,6 +77,14 @@ static double pixel_response(const wdr_cal_result *res, long i, double x)
  * the inverse only) the two ends by bisection and the nominal curve's spacing in between. */
 static void sample_codes(const wdr_cal_result *res, long i, const double *xs, double *ys)
 {
+    if (res->model == WDR_MODEL_SPLINE) { /* one curve for all samples */
+        wdr_pchip c;
+        const double *p = res->params + i * res->n_params;
+        int bad = wdr_pchip_init(&c, res->nominal.curve.lx, p, res->nominal.curve.n);
+        for (int k = 0; k < MAP_SAMPLES; k++)
+            ys[k] = bad ? 0 : wdr_pchip_eval(&c, log(xs[k]));
+        return;
+    }
     if (res->model != WDR_MODEL_LSQ) {
         for (int k = 0; k < MAP_SAMPLES; k++)
             ys[k] = pixel_response(res, i, xs[k]);
@@ -100,7 +108,9 @@ static int poly_coeffs(const wdr_cal_result *res, long i, int nc, double *c)
         xs[k] = exp(lx0 + (lx1 - lx0) * k / (MAP_SAMPLES - 1));
     sample_codes(res, i, xs, ys);
     for (int k = 0; k < MAP_SAMPLES; k++) {
-        double u = 2 * ys[k] / res->cfg.raw_max - 1, pw = 1, x = wdr_cal_recover(res, i, ys[k], &st);
+        /* the paper models and the spline invert their own response exactly: x is the sample's */
+        double u = 2 * ys[k] / res->cfg.raw_max - 1, pw = 1;
+        double x = res->model == WDR_MODEL_LSQ ? wdr_cal_recover(res, i, ys[k], &st) : xs[k];
         for (int j = 0; j < nc; j++, pw *= u)
             a[k * nc + j] = pw;
         t[k] = wdr_nominal_eval(&res->nominal, x);

@@ -141,7 +141,7 @@ int main(int argc, char **argv)
         result r;
         wdr_cal_config_defaults(&cfg, rows[i].model);
         cfg.form = rows[i].form, cfg.n_coeffs = rows[i].n_coeffs;
-        cfg.range_lo = 1e-14, cfg.range_hi = 1e-8;
+        cfg.range_lo = 1e-14, cfg.range_hi = 1e-8, cfg.tie_codes = 1e-3;
         if (wdr_cal_select_currents(&acc.grid, &cfg, rows[i].n_currents, 1e-14, 1e-8, 64, &ch, err, sizeof err) ||
             run(&timing, &acc, &cfg, &ch, &r)) {
             fprintf(stderr, "bench_cal: %s: %s\n", rows[i].name, err);
@@ -158,11 +158,30 @@ int main(int argc, char **argv)
         wdr_cal_choice ch;
         result r;
         wdr_cal_config_defaults(&cfg, WDR_MODEL_SPLINE);
-        cfg.range_lo = 1e-14, cfg.range_hi = 1e-8;
+        cfg.range_lo = 1e-14, cfg.range_hi = 1e-8, cfg.tie_codes = 1e-3;
         if (wdr_cal_select_currents(&acc.grid, &cfg, counts[i], 1e-14, 1e-8, 64, &ch, err, sizeof err) ||
             run(&timing, &acc, &cfg, &ch, &r))
             return 1;
         printf("%8d %12.3f %12.4f %12.4f\n", counts[i], r.fit_s_per_mp, r.worst_model, r.worst_table);
+    }
+    printf("\nEvery operator (spline, 19 currents over the operator's informative range, 64x48)\n");
+    printf("%-18s %22s %12s %12s %6s\n", "operator", "range (A)", "model err%", "table err%", "bad");
+    static const char *ops[] = {"reinhard", "reinhard_white", "schlick", "tumblin_rushmeier", "drago", "exponential",
+                                "logarithmic"};
+    for (size_t i = 0; i < sizeof ops / sizeof ops[0]; i++) {
+        setup s;
+        wdr_cal_config cfg;
+        wdr_cal_choice ch;
+        result r;
+        double lo, hi;
+        if (open_chip(&s, 64, 48, ops[i]) || wdr_cal_informative_range(&s.grid, 2.0, &lo, &hi))
+            return 1;
+        wdr_cal_config_defaults(&cfg, WDR_MODEL_SPLINE);
+        cfg.range_lo = lo, cfg.range_hi = hi, cfg.tie_codes = 1e-3;
+        if (wdr_cal_select_currents(&s.grid, &cfg, 19, lo, hi, 64, &ch, err, sizeof err) || run(&s, &s, &cfg, &ch, &r))
+            return 1;
+        printf("%-18s %10.3g..%-10.3g %12.4f %12.4f %6ld\n", ops[i], lo, hi, r.worst_model, r.worst_table, r.bad);
+        close_chip(&s);
     }
     close_chip(&acc);
     close_chip(&timing);
