@@ -151,7 +151,7 @@ static int load_board(const char *name, wdr_board *b)
 }
 
 /* Scene statistics measured from an HDR image (luminance in cd/m2). */
-static int stats_from_image(const char *path, wdr_scene_stats *st)
+int wdrctl_stats_from_image(const char *path, wdr_scene_stats *st)
 {
     char err[512];
     float *lum;
@@ -174,7 +174,7 @@ static int setup_operator(const lut_opts *o, const wdr_board *b, wdr_operator *o
     char err[512];
     wdr_scene_stats st;
     wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
-    int ex = o->scene_image ? stats_from_image(o->scene_image, &st) : EX_OK;
+    int ex = o->scene_image ? wdrctl_stats_from_image(o->scene_image, &st) : EX_OK;
     if (ex != EX_OK)
         return ex;
     st.l_avg = isnan(o->l_avg) ? st.l_avg : o->l_avg;

@@ -13,7 +13,7 @@
 #include <string.h>
 
 typedef struct tonemap_opts {
-    const char *board, *scene, *op_name, *capture, *out, *side;
+    const char *board, *scene, *op_name, *capture, *out, *side, *scene_image;
     const char *params[16];
     int n_params;
 } tonemap_opts;
@@ -30,6 +30,7 @@ static int parse_tonemap(int argc, char **argv, tonemap_opts *o)
                             : !strcmp(a, "--capture")    ? &o->capture
                             : !strcmp(a, "-o")           ? &o->out
                             : !strcmp(a, "--side-by-side") ? &o->side
+                            : !strcmp(a, "--scene-image") ? &o->scene_image
                             : !strcmp(a, "--param") && o->n_params < 16 ? &o->params[o->n_params++]
                                                                         : NULL;
         if (!slot || !v)
@@ -52,6 +53,8 @@ static int load_inputs(const tonemap_opts *o, wdr_board *b, wdr_scene *sc, wdr_o
         rc = wdr_scene_load(o->scene, b, sc, err, sizeof err);
     wdr_scene_stats st;
     wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    if (!rc && o->scene_image && wdrctl_stats_from_image(o->scene_image, &st) != EX_OK)
+        return EX_DATAERR;
     if (!rc)
         rc = wdr_operator_init(op, o->op_name, &st, err, sizeof err);
     for (int i = 0; !rc && i < o->n_params; i++)
