@@ -311,6 +311,9 @@ static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
     if (!d->codes)
         return wdrctl_fail(EX_OSERR, "out of memory for a %ux%u frame", in->width, in->height);
     d->simulated = wdr_client_set_illuminant(d->conn.c, 0) == WDR_OK;
+    if (!d->simulated && !o->currents && !o->levels_file)
+        return wdrctl_fail(EX_USAGE, "calibrate: %s sets no light itself: give the levels you will set with "
+                           "--currents A,B,.. or --levels-file FILE (you are asked for each)", o->device);
     if (o->lut && (rc = upload_lut_with_margin(d, o->lut)) != EX_OK)
         return rc;
     int r = upload_passthrough(d);
