@@ -31,7 +31,7 @@ static uint32_t extension_codes(const wdr_lut_view *lut, uint16_t c_last, uint32
 {
     uint32_t max_code = (1u << lut->h.dac_bits) - 1u;
     double lsb = (lut->h.dac_hi_v - lut->h.dac_lo_v) / max_code;
-    double want = ceil(margin_v / lsb), by_time = floor(max_time_frac * t_last / step);
+    double want = ceil(margin_v / lsb - 1e-6), by_time = floor(max_time_frac * t_last / step); /* f32 volts */
     double extra = fmin(fmin(want, by_time), (double)(max_code - c_last));
     extra = fmin(extra, (double)(WDR_LUT_MAX_ENTRIES - lut->h.entry_count));
     return extra > 0 ? (uint32_t)extra : 0;

@@ -464,6 +464,10 @@ static void print_summary(const cal_opts *o, const cal_run *r)
     cJSON *f = cJSON_AddObjectToObject(j, "flags");
     for (int b = 0; b < 5; b++)
         cJSON_AddNumberToObject(f, flag_names[b], (double)res->n_flag[b]);
+    cJSON *why = cJSON_AddObjectToObject(j, "unfit_reasons");
+    for (int st = 1; st < WDR_FIT_COUNT; st++)
+        if (res->n_status[st])
+            cJSON_AddNumberToObject(why, wdr_fit_status_name(st), (double)res->n_status[st]);
     cJSON_AddNumberToObject(j, "table_bytes", (double)r->table_len);
     char *text = cJSON_Print(j);
     printf("%s\n", text);

@@ -218,6 +218,74 @@ static void identity_without_table(void **state)
     assert_int_equal(wdr_cal_identity(&v, 1, 3, 2, NAN, 4095, 65535), WDR_E_INVAL);
 }
 
+/* A source whose frame k holds k + pixel index: the engine must average frames per level. */
+static int counting_capture(void *ctx, double amps, int frame_no, float *frame)
+{
+    int *calls = ctx;
+    (*calls)++;
+    for (int i = 0; i < 6; i++)
+        frame[i] = (float)(frame_no + i + (amps > 0 ? 1000 : 0));
+    return WDR_OK;
+}
+
+static void engine_averages_each_level(void **state)
+{
+    (void)state;
+    int calls = 0;
+    wdr_cal_source src = {3, 2, counting_capture, &calls};
+    double amps[2] = {1e-12, 1e-10};
+    wdr_cal_levels lv;
+    char err[256];
+    assert_int_equal(wdr_cal_acquire(&src, amps, 2, 4, 1, NULL, NULL, &lv, err, sizeof err), WDR_OK);
+    assert_int_equal(calls, 12);
+    /* dark: frames 0..3, level 0: frames 4..7, level 1: frames 8..11 */
+    assert_double_equal(lv.dark[0], 1.5, 1e-6);
+    assert_double_equal(lv.frames[0], 1000 + 5.5, 1e-6);
+    assert_double_equal(lv.frames[6 + 5], 1000 + 9.5 + 5, 1e-6);
+    wdr_cal_levels_free(&lv);
+    double bad[2] = {1e-10, 1e-12};
+    assert_int_equal(wdr_cal_acquire(&src, bad, 2, 4, 1, NULL, NULL, &lv, err, sizeof err), WDR_E_INVAL);
+    assert_non_null(strstr(err, "above the one before"));
+}
+
+/* The calibration margin continues the ramp past its last code, one entry per code. */
+static void lut_margin_extends_the_ramp(void **state)
+{
+    (void)state;
+    uint32_t ticks[20];
+    uint16_t codes[20];
+    for (int i = 0; i < 20; i++)
+        ticks[i] = (uint32_t)(i * 100), codes[i] = (uint16_t)(1000 + i);
+    wdr_lut_header h = {.operator_id = WDR_OP_REINHARD, .dac_bits = 12, .timing = WDR_TIMING_STAMPED,
+                        .entry_count = 20, .tick_ps = 1000, .t_integration_ticks = 2000, .dac_lo_v = 0,
+                        .dac_hi_v = 4.095f};
+    size_t len = wdr_lut_size(20), out_len;
+    uint8_t *buf = malloc(len), *out;
+    wdr_lut_encode(&h, ticks, codes, buf);
+    double added, done;
+    char err[256];
+    assert_int_equal(wdr_cal_lut_extend(buf, len, 0.010, 1.0, &out, &out_len, &added, &done, err, sizeof err),
+                     WDR_OK);
+    wdr_lut_view v;
+    assert_int_equal(wdr_lut_parse(out, out_len, &v), WDR_OK);
+    assert_int_equal(v.h.entry_count, 30); /* 10 mV at 1 mV per code */
+    assert_double_equal(done, 0.010, 1e-6);
+    uint32_t t;
+    uint16_t c;
+    wdr_lut_entry(&v, 29, &t, &c);
+    assert_int_equal(c, 1029);
+    assert_int_equal(t, 2900);
+    assert_true(added > 0);
+    free(out);
+    /* a flat end cannot be continued */
+    for (int i = 0; i < 20; i++)
+        codes[i] = 1000;
+    wdr_lut_encode(&h, ticks, codes, buf);
+    assert_int_equal(wdr_cal_lut_extend(buf, len, 0.010, 1.0, &out, &out_len, &added, &done, err, sizeof err),
+                     WDR_E_INVAL);
+    free(buf);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -226,7 +294,8 @@ int main(void)
         cmocka_unit_test(qr_least_squares_line),       cmocka_unit_test(quadratic_root_without_cancellation),
         cmocka_unit_test(monotone_curve_stays_monotone), cmocka_unit_test(table_round_trip_and_kernel),
         cmocka_unit_test(table_damage_refused),        cmocka_unit_test(table_bad_numbers_refused),
-        cmocka_unit_test(identity_without_table),
+        cmocka_unit_test(identity_without_table),      cmocka_unit_test(engine_averages_each_level),
+        cmocka_unit_test(lut_margin_extends_the_ramp),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
