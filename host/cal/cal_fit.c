@@ -14,8 +14,10 @@ void wdr_cal_config_defaults(wdr_cal_config *c, int model)
     c->n_coeffs = model == WDR_MODEL_SIMPLE3 ? 3 : 5;
     c->use_dark_ref = model == WDR_MODEL_SIMPLE3 || model == WDR_MODEL_COMPLEX4;
     c->raw_max = 4095;
-    c->out_scale = 16.0f;
-    c->out_max = 65535;
+    /* corrected codes in the raw codes' own range, as frames without a table: what the host tools
+     * expect from a capture. A scale of 16 keeps 4 more bits (16-bit frames) */
+    c->out_scale = 1.0f;
+    c->out_max = 4095;
     c->stuck_frac = 0.01;
     c->dead_frac = 0.5;
     c->hot_frac = 0.25;

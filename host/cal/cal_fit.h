@@ -50,8 +50,8 @@ typedef struct wdr_cal_config {
     int n_coeffs;       /* POLY table: coefficients (degree + 1); POLYMAP fits this many directly */
     int use_dark_ref;   /* SIMPLE3/COMPLEX4: level 0 is the dark-end reference for d (eq. 20) */
     double raw_max;     /* largest raw code */
-    float out_scale;    /* output code per raw code unit */
-    uint16_t out_max;
+    float out_scale;    /* output code per raw code unit (default 1: frames keep the ADC's range) */
+    uint16_t out_max;   /* largest output code (default raw_max * out_scale) */
     double stuck_frac, dead_frac, hot_frac; /* bad-pixel thresholds (see cal_fit.c) */
     double max_residual;/* LSQ/POLYMAP: largest rms relative residual at the calibration currents */
     double range_lo, range_hi; /* currents the table must serve (A); 0: the calibration currents' span */

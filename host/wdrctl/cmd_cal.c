@@ -28,7 +28,7 @@
 
 typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
-    int select_n, frames, adc, dac, upload, json, sample;
+    int select_n, frames, adc, dac, upload, json, sample, out_scale;
     unsigned long seed;
 } cal_opts;
 
@@ -70,6 +70,7 @@ static int set_option(int c, const char *arg, cal_opts *o)
     case 'n': return parse_count("--select", arg, 2, WDR_CAL_MAX_LEVELS - 1, &o->select_n);
     case 'M': return parse_count("--frames", arg, 1, 4096, &o->frames);
     case 'P': return parse_count("--sample", arg, 16, 1 << 20, &o->sample);
+    case 'S': return parse_count("--out-scale", arg, 1, 16, &o->out_scale);
     case 'a': return parse_on_off("--adc", arg, &o->adc);
     case 'D': return parse_on_off("--dac", arg, &o->dac);
     case 's': o->seed = strtoul(arg, NULL, 0); return EX_OK;
@@ -88,9 +89,9 @@ static int parse_options(int argc, char **argv, const char *cmd, cal_opts *o)
         {"select", required_argument, NULL, 'n'},   {"frames", required_argument, NULL, 'M'},
         {"sample", required_argument, NULL, 'P'},   {"adc", required_argument, NULL, 'a'},
         {"dac", required_argument, NULL, 'D'},      {"seed", required_argument, NULL, 's'},
-        {"lut", required_argument, NULL, 'l'},
+        {"lut", required_argument, NULL, 'l'},      {"out-scale", required_argument, NULL, 'S'},
         {NULL, 0, NULL, 0}};
-    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .adc = 1, .dac = 1, .sample = 256, .seed = 1};
+    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .adc = 1, .dac = 1, .sample = 256, .seed = 1, .out_scale = 1};
     optind = 1;
     int c;
     while ((c = getopt_long(argc, argv, "o:", longopts, NULL)) != -1) {
@@ -492,6 +493,15 @@ static void free_run(cal_run *r)
     free(r->table);
 }
 
+/* Output codes: raw_max * out_scale, at most 16 bits. */
+static void set_output(const cal_opts *o, wdr_cal_config *cfg, unsigned adc_bits)
+{
+    cfg->raw_max = (1u << adc_bits) - 1u;
+    cfg->out_scale = (float)o->out_scale;
+    double top = cfg->raw_max * o->out_scale;
+    cfg->out_max = (uint16_t)(top < 65535 ? top : 65535);
+}
+
 static int calibrate_with(const cal_opts *o, const wdr_cal_source *src, cal_run *r, uint32_t sensor_id, int op_id,
                           int model)
 {
@@ -522,7 +532,7 @@ int cmd_calibrate(int argc, char **argv)
         device_src d;
         wdr_cal_source src;
         if ((rc = open_device(&o, &d, &src)) == EX_OK) {
-            r.cfg.raw_max = (1u << d.conn.c->info.adc_bits) - 1u;
+            set_output(&o, &r.cfg, d.conn.c->info.adc_bits);
             rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model);
             if (rc == EX_OK && o.upload)
                 rc = upload_table(&d, &r);
@@ -537,7 +547,7 @@ int cmd_calibrate(int argc, char **argv)
         return wdrctl_fail(EX_USAGE, "calibrate: unknown operator '%s' (see 'wdrctl operators')", o.op_name);
     if ((rc = load_board(o.board, &b)) != EX_OK || (rc = open_sim(&o, &b, &c)) != EX_OK)
         return rc;
-    r.cfg.raw_max = (1u << b.adc_bits) - 1u;
+    set_output(&o, &r.cfg, (unsigned)b.adc_bits);
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
     rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model);
@@ -577,7 +587,7 @@ static int report_model(report *rp, model_report *m)
     char err[512];
     cal_run *r = &m->run;
     wdr_cal_config_defaults(&r->cfg, m->model);
-    r->cfg.raw_max = (1u << rp->b.adc_bits) - 1u;
+    set_output(&rp->o, &r->cfg, (unsigned)rp->b.adc_bits);
     r->cfg.range_lo = rp->lo, r->cfg.range_hi = rp->hi;
     r->cfg.tie_codes = rp->o.adc ? r->cfg.tie_codes : 1e-3;
     r->lo = rp->lo, r->hi = rp->hi;
