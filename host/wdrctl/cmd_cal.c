@@ -311,7 +311,7 @@ static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
     d->codes = malloc(sizeof(uint16_t) * (size_t)in->width * in->height);
     if (!d->codes)
         return wdrctl_fail(EX_OSERR, "out of memory for a %ux%u frame", in->width, in->height);
-    d->simulated = wdr_client_set_illuminant(d->conn.c, 0) == WDR_OK;
+    d->simulated = (in->caps & WDR_INFO_CAP_ILLUMINANT) != 0;
     if (!d->simulated && !o->currents && !o->levels_file)
         return wdrctl_fail(EX_USAGE, "calibrate: %s sets no light itself: give the levels you will set with "
                            "--currents A,B,.. or --levels-file FILE (you are asked for each)", o->device);
