@@ -416,7 +416,7 @@ static int params_of(int model, int n_coeffs)
 #define LSQ_LINEAR 4
 #define LSQ_SEARCH_FRAC 0.03
 #define LSQ_SCAN 8    /* scan points either side */
-#define LSQ_GOLDEN 30 /* refinement steps: the bracket shrinks to 1e-6 of a scan step */
+#define LSQ_GOLDEN 20 /* refinement steps: the bracket shrinks to 1e-4 of a scan step */
 
 static int is_curve_model(int model)
 {
@@ -556,18 +556,21 @@ static double lsq_recover_u(const wdr_cal_result *res, const double *theta, doub
 static double lsq_solve_at(const wdr_cal_result *res, const double *y, const double *u, int n, double o,
                            double *theta)
 {
-    double a[WDR_CAL_MAX_LEVELS * LSQ_LINEAR], t[WDR_CAL_MAX_LEVELS], w[WDR_CAL_MAX_LEVELS] = {0}, rcond;
+    double a[WDR_CAL_MAX_LEVELS * LSQ_LINEAR], basis[WDR_CAL_MAX_LEVELS * LSQ_LINEAR], t[WDR_CAL_MAX_LEVELS];
+    double w[WDR_CAL_MAX_LEVELS] = {0}, rcond;
     for (int k = 0; k < n; k++) {
-        lsq_basis(res, y[k] - o, a + k * LSQ_LINEAR);
+        lsq_basis(res, y[k] - o, basis + k * LSQ_LINEAR);
         t[k] = u[k];
         w[k] = 1 / u[k]; /* relative residual: the contrast error */
     }
+    memcpy(a, basis, sizeof(double) * (size_t)(n * LSQ_LINEAR)); /* the solver overwrites its matrix */
     if (wdr_lsq_solve(a, t, w, n, LSQ_LINEAR, theta, &rcond))
         return INFINITY;
     theta[LSQ_LINEAR] = o;
     double ss = 0;
     for (int k = 0; k < n; k++) {
-        double r = lsq_recover_u(res, theta, y[k]) / u[k] - 1;
+        const double *phi = basis + k * LSQ_LINEAR;
+        double r = (theta[0] * phi[0] + theta[1] * phi[1] + theta[2] * phi[2] + theta[3] * phi[3]) / u[k] - 1;
         ss += r * r;
     }
     return isfinite(ss) ? sqrt(ss / n) : INFINITY;
