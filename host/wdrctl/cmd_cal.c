@@ -95,8 +95,10 @@ static int parse_options(int argc, char **argv, const char *cmd, cal_opts *o)
     optind = 1;
     int c;
     while ((c = getopt_long(argc, argv, "o:", longopts, NULL)) != -1) {
-        if (c == '?' || set_option(c, optarg, o) != EX_OK)
+        if (c == '?')
             return wdrctl_fail(EX_USAGE, "%s: bad option (see 'wdrctl --help')", cmd);
+        if (set_option(c, optarg, o) != EX_OK)
+            return EX_USAGE; /* set_option named the option and the value */
     }
     if (optind < argc)
         return wdrctl_fail(EX_USAGE, "%s: unexpected argument '%s'", cmd, argv[optind]);
