@@ -102,6 +102,9 @@ static int parse_options(int argc, char **argv, const char *cmd, cal_opts *o)
     }
     if (optind < argc)
         return wdrctl_fail(EX_USAGE, "%s: unexpected argument '%s'", cmd, argv[optind]);
+    const char *env = getenv("WDR_DEVICE"); /* as the other board commands: a board when one is named */
+    if (!o->device && env && *env)
+        o->device = env;
     return EX_OK;
 }
 

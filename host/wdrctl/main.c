@@ -29,7 +29,7 @@ static const wdrctl_command commands[] = {
      "[-n N] -o FILE.png|FILE.pfm [--bits 8|16] [--raw] [--negate] [--average]  N frames (numbered files)"},
     {NULL, "stream", cmd_stream, "[-n N] [--seconds S]  frames back to back, one line each, until Ctrl-C"},
     {"sim", "illuminant", cmd_sim_illuminant, "AMPS  light every pixel of a simulated board uniformly"},
-    /* Calibration (cmd_cal.c): the simulator directly, or a board with --device. */
+    /* Calibration (cmd_cal.c): a board with --device or $WDR_DEVICE, else the simulator directly. */
     {NULL, "calibrate", cmd_calibrate,
      "[--model spline|simple3|complex4|lsq|polymap] [--currents A,B,..|--levels-file F|--select N] [--frames M]\n"
      "            [--board FILE] [--operator NAME] [--adc on|off] [--dac on|off]\n"
