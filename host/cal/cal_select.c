@@ -117,13 +117,21 @@ static void search_subsets(const wdr_cal_levels *s, const wdr_cal_config *cfg, c
     }
 }
 
-/* n log-spaced currents over the candidates, denser at the dark end for gamma > 1 and at the
- * bright end for gamma < 1, snapped to the grid; duplicates make the set invalid. */
+/* Position k of n in [0, 1]: a power warp, denser at the dark end for gamma > 1 and at the
+ * bright end for gamma < 1; gamma 0 means denser at both ends (cosine spacing). */
+static double warp_position(int k, int n, double gamma)
+{
+    double t = (double)k / (n - 1);
+    return gamma > 0 ? pow(t, gamma) : 0.5 * (1 - cos(3.141592653589793 * t));
+}
+
+/* n log-spaced currents over the candidates, warped, snapped to the grid; duplicates make the
+ * set invalid. */
 static int warped_set(const wdr_cal_levels *s, const int *cand, int nc, int n, double gamma, int *idx)
 {
     double l0 = log(s->amps[cand[0]]), l1 = log(s->amps[cand[nc - 1]]);
     for (int k = 0; k < n; k++) {
-        double t = pow((double)k / (n - 1), gamma), target = l0 + (l1 - l0) * t;
+        double t = warp_position(k, n, gamma), target = l0 + (l1 - l0) * t;
         int best = cand[0];
         for (int j = 0; j < nc; j++)
             if (fabs(log(s->amps[cand[j]]) - target) < fabs(log(s->amps[best]) - target))
@@ -138,7 +146,7 @@ static int warped_set(const wdr_cal_levels *s, const int *cand, int nc, int n, d
 static void search_warped(const wdr_cal_levels *s, const wdr_cal_config *cfg, const int *cand, int nc, int n,
                           const int *eval, int n_eval, wdr_cal_choice *best)
 {
-    static const double gammas[] = {0.6, 0.7, 0.8, 0.9, 1.0, 1.12, 1.25, 1.4, 1.6};
+    static const double gammas[] = {0, 0.6, 0.7, 0.8, 0.9, 1.0, 1.12, 1.25, 1.4, 1.6};
     for (size_t g = 0; g < sizeof gammas / sizeof gammas[0]; g++) {
         int idx[WDR_CAL_MAX_LEVELS];
         if (!warped_set(s, cand, nc, n, gammas[g], idx))
