@@ -47,7 +47,11 @@ static double judge(const wdr_cal_levels *s, const wdr_cal_config *cfg, const in
         worst = 0;
         for (int e = 0; e < n_eval && worst < INFINITY; e++) {
             wdr_fpn_stats st;
-            int k = eval[e];
+            int k = eval[e], used = 0;
+            for (int j = 0; j < n; j++)
+                used |= idx[j] == k;
+            if (used)
+                continue; /* judged where the fit did not look: an interpolating model is exact there */
             wdr_fpn_frame(&res, NULL, WDR_PATH_MODEL, s->frames + (long)k * s->width, s->amps[k], res.flags, NULL,
                           &st);
             double v = st.nonfinite || !st.used ? INFINITY : st.sd_pct;
