@@ -145,9 +145,6 @@ int wdr_cal_sim_capture(void *ctx, double amps, int frame_no, float *frame)
     return rc;
 }
 
-/* Calibration margin, at most this fraction of the integration time. */
-#define MARGIN_MAX_TIME_FRAC 1.0
-
 static int build_lut(const wdr_board *b, const char *op_name, double margin_v, uint8_t **bytes, size_t *len,
                      char *err, int errlen)
 {
@@ -157,7 +154,8 @@ static int build_lut(const wdr_board *b, const char *op_name, double margin_v, u
     uint8_t *ext;
     size_t ext_len;
     double added, done;
-    rc = wdr_cal_lut_extend(*bytes, *len, margin_v, MARGIN_MAX_TIME_FRAC, &ext, &ext_len, &added, &done, err, errlen);
+    rc = wdr_cal_lut_extend(*bytes, *len, margin_v, WDR_CAL_MARGIN_MAX_TIME_FRAC, &ext, &ext_len, &added, &done, err,
+                            errlen);
     free(*bytes);
     *bytes = rc ? NULL : ext;
     *len = ext_len;

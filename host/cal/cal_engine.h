@@ -56,6 +56,12 @@ int wdr_cal_sim_capture(void *ctx, double amps, int frame_no, float *frame);
 int wdr_cal_sim_setup(const wdr_board *b, const char *op_name, uint64_t chip_seed, int adc_quant, double margin_v,
                       wdr_sim **sim, uint8_t **lut_bytes, char *err, int errlen);
 
+/* The default calibration margin: 60 mV is about six sigma of the reset-level and M2-threshold
+ * spread of the 0.35 um defaults; it may take at most twice the ramp's integration time (slow
+ * ramp ends, as Tumblin-Rushmeier's, need that; Reinhard's takes +4 %). */
+#define WDR_CAL_MARGIN_V 0.06
+#define WDR_CAL_MARGIN_MAX_TIME_FRAC 2.0
+
 /* Continue a LUT's ramp at its final slope for margin_v volts, so pixels with thresholds above
  * nominal still cross at the dimmest current and in the dark frame. The extension stops early
  * at max_time_frac of the integration time or the DAC's top code: *margin_done_v says how far

@@ -38,20 +38,27 @@ static double pchip_end_slope(double h0, double h1, double d0, double d1)
     return m;
 }
 
-/* Knot slopes of the C2 cubic spline with not-too-stiff natural ends (tridiagonal solve). */
+/* Three-point (quadratic) slope estimate at an end, without the monotone limiter. */
+static double quadratic_end_slope(double h0, double h1, double d0, double d1)
+{
+    return ((2 * h0 + h1) * d0 - h0 * d1) / (h0 + h1);
+}
+
+/* Knot slopes of the C2 cubic spline, its end slopes clamped to the three-point estimates (a
+ * natural end would force zero curvature where the response still bends). Tridiagonal solve. */
 static void spline_slopes(const double *h, const double *d, int n, double *m)
 {
     double diag[WDR_PCHIP_MAX], rhs[WDR_PCHIP_MAX], up[WDR_PCHIP_MAX];
-    diag[0] = 2, up[0] = 1, rhs[0] = 3 * d[0];
+    diag[0] = 1, up[0] = 0, rhs[0] = n > 2 ? quadratic_end_slope(h[0], h[1], d[0], d[1]) : d[0];
     for (int k = 1; k < n - 1; k++) {
         diag[k] = 2 * (h[k - 1] + h[k]);
         up[k] = h[k - 1];
         rhs[k] = 3 * (h[k] * d[k - 1] + h[k - 1] * d[k]);
     }
-    diag[n - 1] = 2, rhs[n - 1] = 3 * d[n - 2];
-    /* row k: lower = h[k] (k < n-1) or 1 (last), diag, upper = up[k] */
+    diag[n - 1] = 1, rhs[n - 1] = n > 2 ? quadratic_end_slope(h[n - 2], h[n - 3], d[n - 2], d[n - 3]) : d[0];
+    /* row k: lower = h[k] (k < n-1) or 0 (last, clamped), diag, upper = up[k] */
     for (int k = 1; k < n; k++) {
-        double lower = k < n - 1 ? h[k] : 1, f = lower / diag[k - 1];
+        double lower = k < n - 1 ? h[k] : 0, f = lower / diag[k - 1];
         diag[k] -= f * up[k - 1];
         rhs[k] -= f * rhs[k - 1];
     }

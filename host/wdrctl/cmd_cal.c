@@ -24,7 +24,6 @@
 #define GRID_PER_DECADE 6
 #define N_EVAL 31
 #define MIN_SLOPE_CODES 2.0
-#define MARGIN_V 0.06
 
 typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
@@ -181,7 +180,7 @@ typedef struct sim_chip {
 static int open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c)
 {
     char err[512];
-    if (wdr_cal_sim_setup(b, o->op_name, o->seed, o->adc, MARGIN_V, &c->sim, &c->lut, err, sizeof err))
+    if (wdr_cal_sim_setup(b, o->op_name, o->seed, o->adc, WDR_CAL_MARGIN_V, &c->sim, &c->lut, err, sizeof err))
         return wdrctl_fail(EX_CONFIG, "simulated chip for operator '%s': %s", o->op_name, err);
     if (!o->dac)
         wdr_sim_set_effect(c->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
@@ -290,7 +289,7 @@ static int upload_lut_with_margin(device_src *d, const char *path)
     fclose(f);
     char err[512];
     double added_s, done_v;
-    int rc = buf ? wdr_cal_lut_extend(buf, len, MARGIN_V, 1.0, &ext, &ext_len, &added_s, &done_v, err, sizeof err)
+    int rc = buf ? wdr_cal_lut_extend(buf, len, WDR_CAL_MARGIN_V, WDR_CAL_MARGIN_MAX_TIME_FRAC, &ext, &ext_len, &added_s, &done_v, err, sizeof err)
                  : WDR_E_NOMEM;
     free(buf);
     if (rc)

@@ -147,8 +147,8 @@ static void spline_every_operator_within_1pct(void **state)
         calibrate_and_judge(&c, &cfg, 19, lo, hi, &o);
         printf("    worst %.4f %% (model) at %.3g A, %.4f %% (poly table), %ld flagged\n", o.worst_model, o.worst_at,
                o.worst_table, o.bad);
-        /* Tumblin-Rushmeier's ramp ends so slowly that the calibration margin cannot make every
-         * pixel cross at its dimmest currents: those pixels are flagged (and patched) instead. */
+        /* Tumblin-Rushmeier's ramp ends so slowly that its calibration margin takes the most
+         * time (up to WDR_CAL_MARGIN_MAX_TIME_FRAC); a pixel that still does not cross is flagged. */
         assert_true(o.worst_model <= 1.0);
         chip_close(&c);
     }
