@@ -839,6 +839,10 @@ static int write_json(const report *rp, const emva *e, double hist_before, doubl
     cJSON_AddNumberToObject(j, "range_hi_A", rp->hi);
     cJSON_AddItemToObject(j, "photocurrents_A", cJSON_CreateDoubleArray(rp->eval, N_EVAL));
     cJSON_AddItemToObject(j, "contrast_before_pct", stats_array(rp->m[0].raw, N_EVAL));
+    cJSON_AddStringToObject(j, "contrast_note", "sd across pixels of (x_hat - x)/x in %, x_hat from the nominal "
+                            "curve's inverse (before) or the model and its table (after); before correction, pixels "
+                            "whose raw code lies beyond a flat end of the curve have no sensible inverse, hence "
+                            "huge values there");
     cJSON *models = cJSON_AddArrayToObject(j, "models");
     for (int i = 0; i < rp->n_models; i++)
         cJSON_AddItemToArray(models, model_json(&rp->m[i]));
