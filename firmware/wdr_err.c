@@ -21,6 +21,10 @@ const char *wdr_strerror(int err)
     case WDR_E_UNREALISABLE: return "not realisable as a ramp";
     case WDR_E_NOMEM: return "out of memory";
     case WDR_E_POWER: return "power lost";
+    case WDR_E_ABSENT: return "no board there";
+    case WDR_E_DENIED: return "permission denied";
+    case WDR_E_STATUS: return "refused by the board";
+    case WDR_E_PROTOCOL: return "protocol violation";
     default: return "unknown error";
     }
 }

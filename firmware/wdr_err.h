@@ -20,7 +20,12 @@ enum wdr_err {
     WDR_E_NUMERIC = -14,   /* NaN, Inf or ill-conditioned maths */
     WDR_E_UNREALISABLE = -15, /* operator cannot be realised as a ramp */
     WDR_E_NOMEM = -16,     /* host-side allocation failed */
-    WDR_E_POWER = -17      /* simulated power cut */
+    WDR_E_POWER = -17,     /* simulated power cut */
+    /* host-only outcomes of reaching a board (host/lib/transport*) */
+    WDR_E_ABSENT = -64,    /* no board at that address (no socket, no listener, no USB device) */
+    WDR_E_DENIED = -65,    /* the OS refused access (USB permissions: install the udev rule) */
+    WDR_E_STATUS = -66,    /* the board answered with a non-OK status */
+    WDR_E_PROTOCOL = -67   /* the board answered something the protocol does not allow */
 };
 
 /* Short English name of an error code, for messages. */

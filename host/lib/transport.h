@@ -3,6 +3,7 @@
  * Every call that waits takes a timeout; nothing here blocks forever. */
 #ifndef WDR_TRANSPORT_H
 #define WDR_TRANSPORT_H
+#include "wdr_err.h"
 #include <stddef.h>
 #include <stdint.h>
 
@@ -16,11 +17,7 @@
 #define WDR_USB_PROTOCOL 0x01
 #define WDR_USB_UDEV_RULE "host/udev/60-wdrcam.rules"
 
-/* Host-only failures of reaching a board, continuing the negative codes of wdr_err.h. */
-enum wdr_transport_err {
-    WDR_E_ABSENT = -64, /* no board at that address (no socket, no listener, no USB device) */
-    WDR_E_DENIED = -65  /* the OS refused access (USB permissions: install the udev rule) */
-};
+/* Host-only failures (WDR_E_ABSENT, WDR_E_DENIED) are in wdr_err.h with the rest. */
 
 typedef struct wdr_transport wdr_transport;
 

@@ -9,11 +9,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* Host-only outcomes, continuing enum wdr_transport_err. */
-enum wdr_client_err {
-    WDR_E_STATUS = -66,  /* the board answered with a non-OK status: see wdr_client.status */
-    WDR_E_PROTOCOL = -67 /* the board answered something the protocol does not allow */
-};
+/* WDR_E_STATUS (see wdr_client.status) and WDR_E_PROTOCOL are in wdr_err.h. */
 
 #define WDR_CLIENT_TIMEOUT_MS 2000 /* per attempt, default */
 #define WDR_CLIENT_RETRIES 2       /* extra attempts after a timeout or a garbled answer */
