@@ -14,16 +14,27 @@ static inline double crossing_g(const sim_node *nd, const sim_px *p)
     return nd->a + p->e0 - p->d * (nd->ch + p->d * nd->ch2) - p->ie * nd->t;
 }
 
+/* The guess table as the pixel loops use it, copied into locals: read through the table
+ * pointer, the compiler would reload it after every store to the batch arrays. */
+typedef struct sim_guess {
+    const uint16_t *entry;
+    int32_t base, last;
+} sim_guess;
+
+static inline sim_guess guess_view(const sim_ramp_table *tab)
+{
+    return (sim_guess){tab->guess, (int32_t)tab->guess_base, tab->n_guess - 1};
+}
+
 /* The float bits of a positive current rise with it: their top bits are a cheap log2. */
-static inline int guess_node(const sim_ramp_table *tab, double amps)
+static inline int guess_at(sim_guess g, double amps)
 {
     float f = (float)amps; /* currents are at most 1 A (checked where they come in) */
     int32_t u;             /* as a signed integer, a negative current sorts below every positive one */
     memcpy(&u, &f, sizeof u);
-    int32_t b = (u >> SIM_GUESS_SHIFT) - (int32_t)tab->guess_base;
+    int32_t b = (u >> SIM_GUESS_SHIFT) - g.base;
     b = b < 0 ? 0 : b;
-    b = b >= tab->n_guess ? tab->n_guess - 1 : b;
-    return tab->guess[b];
+    return g.entry[b > g.last ? g.last : b];
 }
 
 /* First node in [lo, n-1] crossed; n-1 when none is (the pixel holds the last value). */
@@ -61,10 +72,10 @@ static int walk_first(const sim_ramp_table *tab, const sim_px *p, int k)
 
 /* Second guess: this pixel's offsets folded into an equivalent nominal current at the first
  * guess k. Usually lands within a step of the answer. */
-static inline int refine_guess(const sim_ramp_table *tab, const sim_px *p, int k)
+static inline int refine_guess(const sim_node *node, sim_guess g, const sim_px *p, int k)
 {
-    const sim_node *nd = &tab->node[k];
-    return guess_node(tab, p->ie - (p->e0 - p->d * (nd->ch + p->d * nd->ch2)) * nd->inv_t);
+    const sim_node *nd = &node[k];
+    return guess_at(g, p->ie - (p->e0 - p->d * (nd->ch + p->d * nd->ch2)) * nd->inv_t);
 }
 
 /* Where the search ended: the first crossed node k (or the last node, not crossed), the
@@ -118,6 +129,17 @@ static double jump_level(const sim_ramp_table *tab, const sim_px *p, const sim_n
     return clampd(sq * sq - d->phi2f, pv->v, v_next);
 }
 
+/* When M2 turned off within step k (the condition falls linearly in time there): at the step's
+ * start if the node was already past the turn-off level when V_ref jumped (g_start <= 0). */
+static inline double cross_time(const sim_px *p, const sim_node *pv, const sim_node *nd, double gk, double g_start)
+{
+    if (g_start <= 0)
+        return pv->t;
+    if (!(p->ie > 0))
+        return nd->t;
+    return clampd((gk + p->ie * nd->t) / p->ie, pv->t, nd->t);
+}
+
 /* Held G voltage and the time M2 turned off, for one pixel and frame. */
 static inline void hold_at(const sim_ramp_table *tab, const sim_px *p, sim_cross c, int need_t, double *v_hold,
                            double *t_cross)
@@ -151,18 +173,19 @@ static inline void hold_at(const sim_ramp_table *tab, const sim_px *p, sim_cross
     }
     /* Either the node was already below this step's turn-off level when V_ref jumped (M2 let
      * G rise only until it turned off, between the two codes), or M2 turned off within the
-     * step when the collected charge reached its threshold. Chosen without a branch: which
-     * one happens is as good as random from pixel to pixel. */
-    int jumped = g_start <= 0;
-    double f = gp / (gp - (g_start < 0 ? g_start : 0.0)); /* gp > 0: node k-1 was not crossed */
-    double t_within = need_t && p->ie > 0 ? clampd((gk + p->ie * nd->t) / p->ie, pv->t, nd->t) : nd->t;
-    *v_hold = jumped ? pv->v + f * dv : nd->v;
-    *t_cross = jumped ? pv->t : t_within;
+     * step when the collected charge reached its threshold. Which one happens is as good as
+     * random from pixel to pixel, so neither is chosen by a branch: with g_start > 0 the
+     * fraction f is exactly 1 and pv->v + dv is exactly nd->v (float voltages, double sums). */
+    double below = 0.5 * (g_start - fabs(g_start)); /* min(g_start, 0), exact, and no branch for the compiler */
+    double f = gp / (gp - below);                    /* gp > 0: node k-1 was not crossed */
+    *v_hold = pv->v + f * dv;
+    *t_cross = need_t ? cross_time(p, pv, nd, gk, g_start) : nd->t;
 }
 
 void sim_pixel_hold(const sim_ramp_table *tab, const sim_px *p, int need_t, double *v_hold, double *t_cross)
 {
-    int k = refine_guess(tab, p, guess_node(tab, p->ie));
+    sim_guess g = guess_view(tab);
+    int k = refine_guess(tab->node, g, p, guess_at(g, p->ie));
     hold_at(tab, p, settle(tab, p, k), need_t, v_hold, t_cross);
 }
 
@@ -194,21 +217,6 @@ double sim_adc(const wdr_board *b, double v, int quantise, int clip)
     return clip ? clampd(x, 0.0, full) : x;
 }
 
-/* A pixel's inputs for this frame: fixed pattern, current and reset noise. */
-static inline sim_px pixel_inputs(const wdr_sim *s, const sim_plan *plan, long i, unsigned *band_mask)
-{
-    const sim_fixed_view *f = &plan->fixed;
-    long j = i * f->stride;
-    double amps = s->amps ? s->amps[i] : s->uniform_amps;
-    unsigned mask = *band_mask = plan->band_mask[plan->banded ? sim_band_of(plan, amps) : 0];
-    if (mask & SIM_BAND_DARK)
-        amps += f->idark[j];
-    sim_px p = {f->dq0[j], f->dvt2[j], amps * f->cinv[j]};
-    if (mask & SIM_BAND_KTC)
-        p.e0 += f->ktc_q[j] * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_KTC, (uint64_t)i));
-    return p;
-}
-
 /* Electrons collected until M2 turned off are Poisson (Gaussian at these counts): move the
  * charge balance by one draw and let the crossing settle again from where it was. */
 static inline sim_cross add_shot_noise(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, long i,
@@ -221,18 +229,57 @@ static inline sim_cross add_shot_noise(const wdr_sim *s, const sim_plan *plan, c
 
 #define BATCH 32
 
+/* Which banded effects run for each pixel of a batch: one mask for all unless the plan
+ * decides per current band. */
+static void batch_masks(const wdr_sim *s, const sim_plan *plan, long i0, int n, unsigned *restrict mask)
+{
+    const float *amps = s->amps;
+    if (!plan->banded || !amps) {
+        unsigned m = plan->band_mask[plan->banded ? sim_band_of(plan, s->uniform_amps) : 0];
+        for (int j = 0; j < n; j++)
+            mask[j] = m;
+        return;
+    }
+    for (int j = 0; j < n; j++)
+        mask[j] = plan->band_mask[sim_band_of(plan, amps[i0 + j])];
+}
+
+/* Stage one for a batch of pixels: fixed pattern, current (plus dark current where it runs),
+ * the first guess from the current, and reset noise. Every per-batch value in a local. */
+static void batch_inputs(const wdr_sim *s, const sim_plan *plan, sim_guess g, long i0, int n, sim_px *restrict p,
+                         int *restrict k, const unsigned *restrict mask)
+{
+    const sim_fixed_view f = plan->fixed;
+    const long st = f.stride, o = i0 * st;
+    const float *amps = s->amps ? s->amps + i0 : NULL, *dq0 = f.dq0 + o, *dvt2 = f.dvt2 + o, *cinv = f.cinv + o;
+    const float *idark = f.idark + o, *ktc_q = f.ktc_q + o;
+    const double uniform = s->uniform_amps;
+    for (int j = 0; j < n; j++) {
+        double a = amps ? amps[j] : uniform;
+        a += (mask[j] & SIM_BAND_DARK) ? idark[j * st] : 0.0f;
+        p[j] = (sim_px){dq0[j * st], dvt2[j * st], a * cinv[j * st]};
+        k[j] = guess_at(g, p[j].ie); /* the nominal crossing: kTC noise only moves the charge offset */
+    }
+    if (!plan->on[WDR_FX_KTC])
+        return;
+    const uint64_t key = sim_rng_key(s->frame_seed, SIM_RNG_KTC);
+    for (int j = 0; j < n; j++)
+        if (mask[j] & SIM_BAND_KTC)
+            p[j].e0 += ktc_q[j * st] * sim_normal((uint32_t)sim_rng_at(key, (uint64_t)(i0 + j)));
+}
+
 /* Stages one and two for a batch of pixels: inputs and the two guesses. Stage by stage, the
  * table look-ups of neighbouring pixels overlap instead of waiting on each other. */
 static inline void batch_guess(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, long i0, int n,
-                               sim_px *p, int *k, unsigned *mask)
+                               sim_px *restrict p, int *restrict k, unsigned *restrict mask)
 {
-    int offsets = plan->on[WDR_FX_MISMATCH] || plan->on[WDR_FX_KTC];
-    for (int j = 0; j < n; j++) {
-        p[j] = pixel_inputs(s, plan, i0 + j, &mask[j]);
-        k[j] = guess_node(tab, p[j].ie);
-    }
-    for (int j = 0; offsets && j < n; j++)
-        k[j] = refine_guess(tab, &p[j], k[j]);
+    const sim_guess g = guess_view(tab);
+    const sim_node *node = tab->node;
+    batch_masks(s, plan, i0, n, mask);
+    batch_inputs(s, plan, g, i0, n, p, k, mask);
+    if (plan->on[WDR_FX_MISMATCH] || plan->on[WDR_FX_KTC])
+        for (int j = 0; j < n; j++)
+            k[j] = refine_guess(node, g, &p[j], k[j]);
 }
 
 /* Stage three: the crossing, the held value, and shot noise on top. */
@@ -269,37 +316,49 @@ void sim_expose_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table
 
 /* Droop until the read, source follower, read noise and the ADC line for n pixels from i0:
  * codes before rounding. Plain loops over arrays, so the compiler can vectorise them. */
+static inline void follower_adc(const wdr_sim *s, const sim_plan *plan, int n, const float *restrict v,
+                                const float *restrict t, const float *restrict sf_k, long st, double t_int,
+                                double t_after, double *restrict code)
+{
+    const double g = s->nom.gamma, g2 = g * g, phi = s->nom.phi2f, leak = plan->leak_v_per_s;
+    const double scale = plan->adc_scale, zero = plan->adc_zero;
+    for (int j = 0; j < n; j++) {
+        double vg = v[j] - leak * (t_int - t[j] + t_after);
+        double disc = g2 + 4.0 * (sf_k[j * st] + vg);
+        disc = disc > g2 ? disc : g2; /* below cut-off the follower sits at -phi, as in pixel.c */
+        double r = 0.5 * (sqrt(disc) - g);
+        code[j] = scale * (r * r - phi) + zero;
+    }
+}
+
 static void read_batch(const wdr_sim *s, const sim_plan *plan, long i0, int n, const float *v, const float *t,
                        double t_int, double t_after, double *code)
 {
-    const sim_fixed_view *f = &plan->fixed;
-    double g = s->nom.gamma, g2 = g * g, phi = s->nom.phi2f, leak = plan->leak_v_per_s;
-    double sf_k[BATCH];
-    for (int j = 0; j < n; j++)
-        sf_k[j] = f->sf_k[(i0 + j) * f->stride];
-    for (int j = 0; j < n; j++) {
-        double vg = v[j] - leak * (t_int - t[j] + t_after);
-        double disc = g2 + 4.0 * (sf_k[j] + vg);
-        disc = disc > g2 ? disc : g2; /* below cut-off the follower sits at -phi, as in pixel.c */
-        double r = 0.5 * (sqrt(disc) - g);
-        code[j] = plan->adc_scale * (r * r - phi) + plan->adc_zero;
-    }
+    const long st = plan->fixed.stride;
+    const float *sf_k = plan->fixed.sf_k + i0 * st;
+    if (st == 1) /* a constant stride: the loop vectorises */
+        follower_adc(s, plan, n, v, t, sf_k, 1, t_int, t_after, code);
+    else
+        follower_adc(s, plan, n, v, t, sf_k, 0, t_int, t_after, code);
     if (!plan->on[WDR_FX_READ])
         return;
-    double volts = plan->adc_scale * s->board.read_noise_v;
+    const double volts = plan->adc_scale * s->board.read_noise_v;
+    const uint64_t key = sim_rng_key(s->frame_seed, SIM_RNG_READ);
     for (int j = 0; j < n; j++)
-        code[j] += volts * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_READ, (uint64_t)(i0 + j)));
+        code[j] += volts * sim_normal((uint32_t)sim_rng_at(key, (uint64_t)(i0 + j)));
 }
 
 /* Codes as stored: a float frame honours adc_quant and clipping; an integer frame always
  * holds rounded in-range codes. */
-static void store_batch(const sim_plan *plan, const double *code, int n, float *out_f, uint16_t *out_u16)
+static void store_batch(const sim_plan *plan, const double *restrict code, int n, float *restrict out_f,
+                        uint16_t *restrict out_u16)
 {
     double full = plan->adc_full;
     if (out_u16) {
-        for (int j = 0; j < n; j++) {
-            double c = code[j] < 0 ? 0 : (code[j] > full ? full : code[j]);
-            out_u16[j] = (uint16_t)(int)(c + 0.5);
+        for (int j = 0; j < n; j++) { /* max and min, in this order, so the loop vectorises */
+            double c = code[j] > 0 ? code[j] : 0.0;
+            c = c < full ? c : full;
+            out_u16[j] = (uint16_t)(int32_t)(c + 0.5);
         }
         return;
     }

@@ -20,10 +20,17 @@ static inline uint64_t sim_mix64(uint64_t x)
     return x ^ (x >> 31);
 }
 
+/* A stream's key depends on the seed and the stream only: pixel loops take it once. */
+static inline uint64_t sim_rng_key(uint64_t seed, uint32_t stream)
+{
+    return sim_mix64(seed + 0x9e3779b97f4a7c15ull * ((uint64_t)stream + 1));
+}
+
+static inline uint64_t sim_rng_at(uint64_t key, uint64_t index) { return sim_mix64(key ^ (index * 0xd1b54a32d192ed03ull)); }
+
 static inline uint64_t sim_rng_u64(uint64_t seed, uint32_t stream, uint64_t index)
 {
-    uint64_t key = sim_mix64(seed + 0x9e3779b97f4a7c15ull * ((uint64_t)stream + 1));
-    return sim_mix64(key ^ (index * 0xd1b54a32d192ed03ull));
+    return sim_rng_at(sim_rng_key(seed, stream), index);
 }
 
 #define SIM_NORM_TABLE_BITS 12
