@@ -166,6 +166,12 @@ static double est_dac(const wdr_sim *s, const probe_set *ps)
 
 static double leak_rate(const wdr_sim *s) { return s->board.hold_leak_a / s->board.c_hold_f; }
 
+/* Droop of a pixel read in the first row: held from the start of the integration. */
+static double est_leak_first_row(const wdr_sim *s, const sim_ramp_table *tab)
+{
+    return leak_rate(s) * tab->t_int * sf_gain(s, s->v_n0_nom * 0.5) / lsb_volts(&s->board);
+}
+
 static double est_leak(const wdr_sim *s, const sim_ramp_table *tab)
 {
     double t = tab->t_int + (s->height - 1) * s->board.row_time_s;
@@ -241,6 +247,10 @@ static double decide_auto(wdr_sim *s, const double est[], sim_plan *plan)
             r->ran = plan->on[best] = 0;
             snprintf(r->why, sizeof r->why, "auto: skipped, worst case %.3g LSB within the tolerance %.3g LSB",
                      est[best], s->tolerance_lsb);
+        } else if (best == WDR_FX_LEAKAGE && est_leak_first_row(s, &s->continuous) > budget) {
+            r->ran = plan->on[best] = 1;
+            snprintf(r->why, sizeof r->why, "auto: ran, worst case %.3g LSB > %.3g LSB left; even row 0 droops "
+                     "%.3g LSB", est[best], budget, est_leak_first_row(s, &s->continuous));
         } else {
             r->ran = plan->on[best] = 1;
             snprintf(r->why, sizeof r->why, "auto: ran, worst case %.3g LSB exceeds the %.3g LSB left of the "
@@ -332,8 +342,18 @@ static uint8_t band_decision(const wdr_sim *s, const double est[3], double budge
 
 typedef struct band_summary {
     int runs, first, last;
+    int could_skip;             /* bands where it fitted the budget but runs anyway (dark current, see below) */
     double worst, worst_skipped;
+    double least;               /* smallest band estimate: above the budget, no band can skip it */
 } band_summary;
+
+/* Why a charge effect cannot be skipped anywhere with a stepped ramp, however flat the response. */
+static const char *band_reason(const wdr_sim *s, int fx)
+{
+    if (s->mode[WDR_FX_DAC_QUANT] == WDR_FX_OFF || fx == WDR_FX_DARK)
+        return "";
+    return "; DAC jumps pass charge noise undamped";
+}
 
 static void report_banded(wdr_sim *s, const sim_plan *plan, int k, const band_summary *bs, double budget)
 {
@@ -348,9 +368,12 @@ static void report_banded(wdr_sim *s, const sim_plan *plan, int k, const band_su
     else if (!bs->runs)
         snprintf(r->why, sizeof r->why, "auto: skipped, worst case %.3g LSB within the %.3g LSB left of the "
                  "tolerance", bs->worst, budget);
+    else if (bs->could_skip > 0)
+        snprintf(r->why, sizeof r->why, "auto: ran in all %d bands: %d could skip it (<= %.3g LSB), but a band "
+                 "look-up per pixel costs more than it saves", plan->n_bands, bs->could_skip, bs->worst_skipped);
     else if (bs->runs == plan->n_bands)
-        snprintf(r->why, sizeof r->why, "auto: ran, worst case %.3g LSB exceeds the %.3g LSB left of the "
-                 "tolerance", bs->worst, budget);
+        snprintf(r->why, sizeof r->why, "auto: ran in all %d bands, least worst case %.3g > %.3g LSB left%s",
+                 plan->n_bands, bs->least, budget, band_reason(s, banded_fx[k]));
     else
         snprintf(r->why, sizeof r->why, "auto: ran in %d of %d current bands (%.2g..%.2g A), skipped where its "
                  "worst case is at most %.3g LSB", bs->runs, plan->n_bands, fmax(lo, s->scene_i_min),
@@ -368,7 +391,8 @@ static int noise_varies(const sim_plan *plan)
 
 static void decide_bands(wdr_sim *s, const sim_ramp_table *tab, sim_plan *plan, double budget)
 {
-    band_summary bs[3] = {{0, -1, -1, 0, 0}, {0, -1, -1, 0, 0}, {0, -1, -1, 0, 0}};
+    band_summary bs[3] = {{0, -1, -1, 0, 0, 0, INFINITY}, {0, -1, -1, 0, 0, 0, INFINITY},
+                          {0, -1, -1, 0, 0, 0, INFINITY}};
     int any_auto = auto_in_band(s, 0) || auto_in_band(s, 1) || auto_in_band(s, 2);
     make_bands(s, plan);
     if (!any_auto) /* nothing to decide per band: one band, no estimates */
@@ -381,6 +405,7 @@ static void decide_bands(wdr_sim *s, const sim_ramp_table *tab, sim_plan *plan, 
         for (int k = 0; k < 3; k++) {
             int runs = (plan->band_mask[b] & banded_bit[k]) != 0;
             bs[k].worst = fmax(bs[k].worst, est[k]);
+            bs[k].least = fmin(bs[k].least, est[k]);
             bs[k].worst_skipped = runs ? bs[k].worst_skipped : fmax(bs[k].worst_skipped, est[k]);
             bs[k].first = runs && bs[k].first < 0 ? b : bs[k].first;
             bs[k].last = runs ? b : bs[k].last;
@@ -392,7 +417,10 @@ static void decide_bands(wdr_sim *s, const sim_ramp_table *tab, sim_plan *plan, 
          * Only when a noise effect is skipped somewhere is banding worth it: else run it all over. */
         for (int b = 0; b < plan->n_bands; b++)
             plan->band_mask[b] |= SIM_BAND_DARK;
-        bs[0] = (band_summary){plan->n_bands, 0, plan->n_bands - 1, bs[0].worst, 0};
+        bs[0].could_skip = plan->n_bands - bs[0].runs;
+        bs[0].runs = plan->n_bands;
+        bs[0].first = 0;
+        bs[0].last = plan->n_bands - 1;
     }
     for (int b = 1; b < plan->n_bands; b++)
         plan->banded |= plan->band_mask[b] != plan->band_mask[0];

@@ -126,6 +126,36 @@ static void effects_by_current_band(void **state)
     test_chip_close(&tc);
 }
 
+/* On the window scene with its stepped ramp nothing but clipping can be skipped: the report
+ * must say what rules each effect in, not only that it ran. */
+static void window_says_why_effects_run(void **state)
+{
+    (void)state;
+    char path[1024], err[512];
+    wdr_board b;
+    wdr_scene sc;
+    test_chip tc;
+    test_board(&b, 64, 48);
+    snprintf(path, sizeof path, "%s/sim/scenes/window.json", WDR_SOURCE_DIR);
+    if (wdr_scene_load(path, &b, &sc, err, sizeof err))
+        fail_msg("%s", err);
+    test_chip_open(&tc, &b, "reinhard", sc.chip_seed);
+    assert_int_equal(wdr_scene_apply(&sc, tc.s), WDR_OK);
+    for (int fx = 0; fx < WDR_FX_COUNT; fx++)
+        wdr_sim_set_effect(tc.s, fx, WDR_FX_AUTO);
+    float *f = malloc((size_t)b.width * b.height * sizeof *f);
+    assert_int_equal(wdr_sim_render_float(tc.s, sc.frame_seed, f), WDR_OK);
+    const wdr_fx_report *r = wdr_sim_report(tc.s);
+    for (int fx = 0; fx < WDR_FX_COUNT; fx++)
+        printf("  %-10s %s\n", wdr_effect_name(fx), r[fx].why);
+    assert_true(r[WDR_FX_SHOT].ran && strstr(r[WDR_FX_SHOT].why, "DAC jumps"));
+    assert_true(r[WDR_FX_KTC].ran && strstr(r[WDR_FX_KTC].why, "DAC jumps"));
+    assert_true(r[WDR_FX_LEAKAGE].ran && strstr(r[WDR_FX_LEAKAGE].why, "even row 0 droops"));
+    free(f);
+    wdr_scene_free(&sc);
+    test_chip_close(&tc);
+}
+
 static void log_wedge(void **state) { (void)state; auto_agrees_with_on(scenes[1]); }
 static void step_chart(void **state) { (void)state; auto_agrees_with_on(scenes[2]); }
 static void uniform(void **state) { (void)state; auto_agrees_with_on(scenes[3]); }
@@ -169,6 +199,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(window),
         cmocka_unit_test(effects_by_current_band),
+        cmocka_unit_test(window_says_why_effects_run),
         cmocka_unit_test(log_wedge),
         cmocka_unit_test(step_chart),
         cmocka_unit_test(uniform),
