@@ -34,7 +34,7 @@ typedef struct sim_ramp_table {
     uint16_t *guess;       /* first node crossed by a nominal pixel at the bucket's lower edge */
 } sim_ramp_table;
 
-#define SIM_GUESS_SHIFT 12 /* 2048 buckets per octave of current: a 12-bit ramp has ~100 steps per octave */
+#define SIM_GUESS_SHIFT 11 /* 4096 buckets per octave of current: a 12-bit ramp has ~100 steps per octave */
 #define SIM_MAX_NODES 65535 /* guess entries are 16-bit */
 
 /* Per-pixel fixed pattern, float arrays of width*height. Charges are in the nominal
