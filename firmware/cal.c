@@ -19,6 +19,16 @@ size_t wdr_cal_size(uint16_t width, uint16_t height, uint16_t n_coeffs)
     return WDR_CAL_HEADER_SIZE + (size_t)height * wdr_cal_row_stride(width, n_coeffs);
 }
 
+uint32_t wdr_cal_shared_bytes(const wdr_cal_header *h)
+{
+    return h->form == WDR_FORM_BASIS ? h->shared_points * h->n_coeffs * 4u : 0u;
+}
+
+size_t wdr_cal_size_basis(uint16_t width, uint16_t height, uint16_t n_coeffs, uint32_t shared_points)
+{
+    return wdr_cal_size(width, height, n_coeffs) + (size_t)shared_points * n_coeffs * 4u;
+}
+
 int wdr_cal_form_coeffs_ok(uint16_t form, uint16_t n_coeffs)
 {
     switch (form) {
@@ -27,6 +37,7 @@ int wdr_cal_form_coeffs_ok(uint16_t form, uint16_t n_coeffs)
     case WDR_FORM_MOEBIUS:
         return n_coeffs == 3;
     case WDR_FORM_POLY:
+    case WDR_FORM_BASIS:
         return n_coeffs >= 2 && n_coeffs <= WDR_CAL_MAX_COEFFS;
     default:
         return 0;
@@ -35,6 +46,22 @@ int wdr_cal_form_coeffs_ok(uint16_t form, uint16_t n_coeffs)
 
 /* x == x rejects NaN; the bounds reject Inf. */
 static int finite_f(float x) { return x == x && x < 3.0e38f && x > -3.0e38f; }
+
+int wdr_cal_shared_check(const float *shared, uint16_t n_coeffs, uint32_t shared_points)
+{
+    for (uint16_t k = 0; k < n_coeffs; k++) {
+        int nonzero = 0;
+        for (uint32_t j = 0; j < shared_points; j++) {
+            float b = shared[j * n_coeffs + k];
+            if (!finite_f(b))
+                return WDR_E_NUMERIC;
+            nonzero |= b != 0.0f;
+        }
+        if (!nonzero)
+            return WDR_E_NUMERIC;
+    }
+    return WDR_OK;
+}
 
 int wdr_cal_identity(wdr_cal_view *v, uint32_t sensor_id, uint16_t width, uint16_t height, float out_scale,
                      uint16_t raw_max, uint16_t out_max)
@@ -74,8 +101,8 @@ static void header_pack(const wdr_cal_header *h, uint8_t *p)
     wdr_put_u16(p + 36, h->out_max);
     wdr_put_u16(p + 38, h->raw_max);
     wdr_put_u32(p + 40, h->bad_pixels);
-    wdr_put_u32(p + 44, h->reserved[0]);
-    wdr_put_u32(p + 48, h->reserved[1]);
+    wdr_put_u32(p + 44, h->shared_points);
+    wdr_put_u32(p + 48, h->reserved);
     wdr_put_u32(p + 52, h->payload_len);
     wdr_put_u32(p + 56, h->payload_crc);
     wdr_put_u32(p + 60, h->header_crc);
@@ -99,8 +126,8 @@ static void header_unpack(const uint8_t *p, wdr_cal_header *h)
     h->out_max = wdr_get_u16(p + 36);
     h->raw_max = wdr_get_u16(p + 38);
     h->bad_pixels = wdr_get_u32(p + 40);
-    h->reserved[0] = wdr_get_u32(p + 44);
-    h->reserved[1] = wdr_get_u32(p + 48);
+    h->shared_points = wdr_get_u32(p + 44);
+    h->reserved = wdr_get_u32(p + 48);
     h->payload_len = wdr_get_u32(p + 52);
     h->payload_crc = wdr_get_u32(p + 56);
     h->header_crc = wdr_get_u32(p + 60);
@@ -116,10 +143,10 @@ const uint8_t *wdr_cal_row_flags(const wdr_cal_view *v, int row)
     return v->payload + (size_t)row * v->row_stride + (size_t)v->h.n_coeffs * v->h.width * 4u;
 }
 
-void wdr_cal_encode(wdr_cal_header *h, const float *coeffs, const uint8_t *flags, uint8_t *out)
+static void encode_rows(const wdr_cal_header *h, const float *coeffs, const uint8_t *flags, uint8_t *rows)
 {
     uint32_t stride = wdr_cal_row_stride(h->width, h->n_coeffs);
-    uint8_t *payload = out + WDR_CAL_HEADER_SIZE;
+    uint8_t *payload = rows;
     memset(payload, 0, (size_t)stride * h->height);
     for (uint32_t r = 0; r < h->height; r++) {
         uint8_t *row = payload + (size_t)r * stride;
@@ -128,15 +155,37 @@ void wdr_cal_encode(wdr_cal_header *h, const float *coeffs, const uint8_t *flags
                 wdr_put_f32(row + 4u * (k * h->width + c), coeffs[((size_t)k * h->height + r) * h->width + c]);
         memcpy(row + (size_t)h->n_coeffs * h->width * 4u, flags + (size_t)r * h->width, h->width);
     }
+}
+
+/* Header fields that follow from the rest; the payload is in place after the header. */
+static void seal(wdr_cal_header *h, uint8_t *out)
+{
     h->magic = WDR_CAL_MAGIC;
     h->version_major = WDR_CAL_VERSION_MAJOR;
-    h->version_minor = WDR_CAL_VERSION_MINOR;
-    h->reserved[0] = h->reserved[1] = 0;
-    h->payload_len = stride * h->height;
-    h->payload_crc = wdr_crc32(0, payload, h->payload_len);
+    h->version_minor = h->form == WDR_FORM_BASIS ? 1 : 0; /* older readers keep reading the other forms */
+    h->reserved = 0;
+    h->payload_len = wdr_cal_shared_bytes(h) + wdr_cal_row_stride(h->width, h->n_coeffs) * h->height;
+    h->payload_crc = wdr_crc32(0, out + WDR_CAL_HEADER_SIZE, h->payload_len);
     header_pack(h, out);
     h->header_crc = wdr_crc32(0, out, WDR_CAL_HEADER_SIZE - 4);
     wdr_put_u32(out + 60, h->header_crc);
+}
+
+void wdr_cal_encode(wdr_cal_header *h, const float *coeffs, const uint8_t *flags, uint8_t *out)
+{
+    h->shared_points = 0;
+    encode_rows(h, coeffs, flags, out + WDR_CAL_HEADER_SIZE);
+    seal(h, out);
+}
+
+void wdr_cal_encode_basis(wdr_cal_header *h, const float *shared, const float *coeffs, const uint8_t *flags,
+                          uint8_t *out)
+{
+    uint32_t n = h->shared_points * h->n_coeffs;
+    for (uint32_t j = 0; j < n; j++)
+        wdr_put_f32(out + WDR_CAL_HEADER_SIZE + 4u * j, shared[j]);
+    encode_rows(h, coeffs, flags, out + WDR_CAL_HEADER_SIZE + 4u * n);
+    seal(h, out);
 }
 
 static int header_check(const wdr_cal_header *h)
@@ -145,13 +194,16 @@ static int header_check(const wdr_cal_header *h)
         return WDR_E_INVAL;
     if (h->form == WDR_FORM_IDENTITY || !wdr_cal_form_coeffs_ok(h->form, h->n_coeffs))
         return WDR_E_INVAL;
-    if (h->model >= WDR_MODEL_COUNT || h->reserved[0] || h->reserved[1] || h->out_max == 0 || h->raw_max == 0)
+    if (h->model >= WDR_MODEL_COUNT || h->reserved || h->out_max == 0 || h->raw_max == 0)
+        return WDR_E_INVAL;
+    if (h->form == WDR_FORM_BASIS ? h->shared_points < 2 || h->shared_points * h->n_coeffs > WDR_CAL_MAX_SHARED_FLOATS
+                                  : h->shared_points != 0)
         return WDR_E_INVAL;
     if (!finite_f(h->in_scale) || h->in_scale == 0.0f || !finite_f(h->in_offset))
         return WDR_E_INVAL;
     if (!finite_f(h->out_scale) || !(h->out_scale > 0.0f))
         return WDR_E_INVAL;
-    if (h->payload_len != (uint32_t)h->height * wdr_cal_row_stride(h->width, h->n_coeffs))
+    if (h->payload_len != wdr_cal_shared_bytes(h) + (uint32_t)h->height * wdr_cal_row_stride(h->width, h->n_coeffs))
         return WDR_E_INVAL;
     return WDR_OK;
 }
@@ -190,6 +242,8 @@ int wdr_cal_parse(const void *buf, size_t len, wdr_cal_view *out)
     const uint8_t *p = buf;
     if (!p || !out || ((uintptr_t)p & 3u))
         return WDR_E_INVAL;
+    out->payload = NULL;
+    out->shared = NULL;
     if (len < WDR_CAL_HEADER_SIZE)
         return WDR_E_TRUNCATED;
     header_unpack(p, &out->h);
@@ -202,10 +256,14 @@ int wdr_cal_parse(const void *buf, size_t len, wdr_cal_view *out)
         return err;
     if (len - WDR_CAL_HEADER_SIZE < out->h.payload_len)
         return WDR_E_TRUNCATED;
-    out->payload = p + WDR_CAL_HEADER_SIZE;
+    uint32_t shared_bytes = wdr_cal_shared_bytes(&out->h);
+    out->shared = shared_bytes ? (const float *)(const void *)(p + WDR_CAL_HEADER_SIZE) : NULL;
+    out->payload = p + WDR_CAL_HEADER_SIZE + shared_bytes;
     out->row_stride = wdr_cal_row_stride(out->h.width, out->h.n_coeffs);
-    if (wdr_crc32(0, out->payload, out->h.payload_len) != out->h.payload_crc)
+    if (wdr_crc32(0, p + WDR_CAL_HEADER_SIZE, out->h.payload_len) != out->h.payload_crc)
         return WDR_E_CORRUPT;
+    if (out->shared && wdr_cal_shared_check(out->shared, out->h.n_coeffs, out->h.shared_points))
+        return WDR_E_NUMERIC;
     return coefficients_check(out);
 }
 

@@ -25,6 +25,40 @@ static inline float poly(const float *const *c, int i, float u, const int n)
     return v;
 }
 
+/* BASIS: the shared table's position of code y, clamped to [0, K-1] (comparisons: NaN goes to
+ * 0), split into a point index below K-1 and a fraction; the last point is reached with f = 1. */
+static inline int basis_point(float y, float a, float b, float last, float *f)
+{
+    float t = y * a + b;
+    t = t > 0.0f ? t : 0.0f;
+    t = t < last ? t : last;
+    int j = (int)t;
+    j = j < (int)last ? j : (int)last - 1;
+    *f = t - (float)j;
+    return j;
+}
+
+/* sum_k c_k B_k(t), each B_k linear between points j and j+1 (point-major: one cache line):
+ * the sums at both points, then one interpolation. Four partial sums, so the multiply-adds do
+ * not wait on each other. */
+static inline float basis_sum(const float *const *c, int i, const float *shared, int j, float f, const int n)
+{
+    const float *p0 = shared + j * n, *p1 = p0 + n;
+    float a0 = 0.0f, a1 = 0.0f, b0 = 0.0f, b1 = 0.0f;
+    int k = 0;
+    for (; k + 1 < n; k += 2) {
+        float ck = c[k][i], cl = c[k + 1][i];
+        a0 += ck * p0[k], a1 += cl * p0[k + 1];
+        b0 += ck * p1[k], b1 += cl * p1[k + 1];
+    }
+    if (k < n) {
+        a0 += c[k][i] * p0[k];
+        b0 += c[k][i] * p1[k];
+    }
+    float a = a0 + a1, b = b0 + b1;
+    return a + f * (b - a);
+}
+
 /* ---- one loop per form and input type ---- */
 
 /* A power-of-two scale of at most 2^15 whose largest raw code fits: a shift, exact. */
@@ -81,6 +115,51 @@ static void poly_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint
     case 6: poly_u16_n(cal, row, raw, out, 6); break;
     case 7: poly_u16_n(cal, row, raw, out, 7); break;
     default: poly_u16_n(cal, row, raw, out, 8); break;
+    }
+}
+
+static inline void basis_u16_n(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out, const int n)
+{
+    const float *c[WDR_CAL_MAX_COEFFS];
+    for (int k = 0; k < n; k++)
+        c[k] = wdr_cal_row_coeffs(cal, row, k);
+    const float s = cal->h.out_scale, m = (float)cal->h.out_max, a = cal->h.in_scale, b = cal->h.in_offset;
+    const float last = (float)(cal->h.shared_points - 1u);
+    const float *shared = cal->shared;
+    const int w = cal->h.width;
+    for (int i = 0; i < w; i++) {
+        float f;
+        int j = basis_point((float)raw[i], a, b, last, &f);
+        out[i] = (uint16_t)(to_output(basis_sum(c, i, shared, j, f, n), s, m) + 0.5f);
+    }
+}
+
+static void basis_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
+{
+    switch (cal->h.n_coeffs) {
+    case 2: basis_u16_n(cal, row, raw, out, 2); break;
+    case 3: basis_u16_n(cal, row, raw, out, 3); break;
+    case 4: basis_u16_n(cal, row, raw, out, 4); break;
+    case 5: basis_u16_n(cal, row, raw, out, 5); break;
+    case 6: basis_u16_n(cal, row, raw, out, 6); break;
+    case 7: basis_u16_n(cal, row, raw, out, 7); break;
+    default: basis_u16_n(cal, row, raw, out, 8); break;
+    }
+}
+
+static void basis_f32(const wdr_cal_view *cal, int row, const float *raw, float *out)
+{
+    const int n = cal->h.n_coeffs;
+    const float *c[WDR_CAL_MAX_COEFFS];
+    for (int k = 0; k < n; k++)
+        c[k] = wdr_cal_row_coeffs(cal, row, k);
+    const float s = cal->h.out_scale, m = (float)cal->h.out_max, a = cal->h.in_scale, b = cal->h.in_offset;
+    const float last = (float)(cal->h.shared_points - 1u);
+    const int w = cal->h.width;
+    for (int i = 0; i < w; i++) {
+        float f;
+        int j = basis_point(raw[i], a, b, last, &f);
+        out[i] = to_output(basis_sum(c, i, cal->shared, j, f, n), s, m);
     }
 }
 
@@ -179,7 +258,8 @@ static void patch_f32(const uint8_t *f, int w, float *out)
 static int row_ok(const wdr_cal_view *cal, int row, const void *raw, const void *out)
 {
     return cal && raw && out && row >= 0 && row < cal->h.height &&
-           (cal->h.form == WDR_FORM_IDENTITY || cal->payload);
+           (cal->h.form == WDR_FORM_IDENTITY || cal->payload) &&
+           (cal->h.form != WDR_FORM_BASIS || (cal->shared && cal->h.shared_points >= 2));
 }
 
 int wdr_correct_row(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
@@ -195,6 +275,9 @@ int wdr_correct_row(const wdr_cal_view *cal, int row, const uint16_t *raw, uint1
         break;
     case WDR_FORM_POLY:
         poly_u16(cal, row, raw, out);
+        break;
+    case WDR_FORM_BASIS:
+        basis_u16(cal, row, raw, out);
         break;
     default:
         return WDR_E_INVAL;
@@ -217,6 +300,9 @@ int wdr_correct_row_f32(const wdr_cal_view *cal, int row, const float *raw, floa
         break;
     case WDR_FORM_POLY:
         poly_f32(cal, row, raw, out);
+        break;
+    case WDR_FORM_BASIS:
+        basis_f32(cal, row, raw, out);
         break;
     default:
         return WDR_E_INVAL;

@@ -94,6 +94,7 @@ static int cal_header(wdr_fw *fw, uint32_t addr, uint32_t len, wdr_cal_view *v)
         return WDR_E_INVAL;
     v->row_stride = wdr_cal_row_stride(v->h.width, v->h.n_coeffs);
     v->payload = NULL;
+    v->shared = NULL;
     return WDR_OK;
 }
 
@@ -104,15 +105,38 @@ static int cal_geometry(const wdr_fw *fw, const wdr_cal_view *v)
         return err;
     if (v->h.raw_max != adc_max(fw))
         return WDR_E_GEOMETRY;
+    if (wdr_cal_shared_bytes(&v->h) > sizeof fw->cal_shared[0])
+        return WDR_E_TOO_LARGE;
     return v->row_stride <= sizeof fw->cal_row ? WDR_OK : WDR_E_TOO_LARGE;
 }
 
-/* Read every row once: CRC of the payload, coefficient checks, flag count. A CRC mismatch
- * wins over what the corrupted rows look like. */
-static int cal_rows_check(wdr_fw *fw, uint32_t addr, const wdr_cal_view *v)
+/* BASIS: the shared block into the staging buffer, checked once; the kernel then trusts it for
+ * every row. *crc continues over it (the payload CRC covers the shared block, then the rows). */
+static int cal_shared_load(wdr_fw *fw, uint32_t addr, wdr_cal_view *v, uint32_t *crc, int *content)
+{
+    uint32_t bytes = wdr_cal_shared_bytes(&v->h);
+    if (!bytes)
+        return WDR_OK;
+    float *buf = fw->cal_shared[fw->cal_shared_buf ^ 1];
+    int err = hal_flash_read(addr, buf, bytes);
+    if (err)
+        return err;
+    *crc = wdr_crc32(*crc, buf, bytes);
+    *content = wdr_cal_shared_check(buf, v->h.n_coeffs, v->h.shared_points);
+    v->shared = buf;
+    return WDR_OK;
+}
+
+/* Read the shared block and every row once: CRC of the payload, value checks, flag count. A CRC
+ * mismatch wins over what the corrupted rows look like. */
+static int cal_rows_check(wdr_fw *fw, uint32_t addr, wdr_cal_view *v)
 {
     uint32_t crc = 0, bad = 0;
     int content = WDR_OK;
+    int err = cal_shared_load(fw, addr, v, &crc, &content);
+    if (err)
+        return err;
+    addr += wdr_cal_shared_bytes(&v->h);
     wdr_cal_view rv;
     row_view(fw, v, &rv);
     for (uint32_t r = 0; r < v->h.height; r++) {
@@ -160,6 +184,8 @@ void wdr_fw_table_activate(wdr_fw *fw, int kind, int slot)
     } else {
         fw->cal = fw->staged_cal;
         fw->cal_slot = slot;
+        if (fw->cal.shared)
+            fw->cal_shared_buf ^= 1; /* the staging buffer the check filled is now the active one */
     }
 }
 
@@ -206,6 +232,7 @@ int wdr_fw_load_cal_row(wdr_fw *fw, uint16_t row)
     if (fw->cal_slot < 0)
         return WDR_OK;
     const wdr_cal_view *v = &fw->cal;
-    uint32_t addr = data_addr(fw, WDR_KIND_CAL, fw->cal_slot) + WDR_CAL_HEADER_SIZE + (uint32_t)row * v->row_stride;
+    uint32_t addr = data_addr(fw, WDR_KIND_CAL, fw->cal_slot) + WDR_CAL_HEADER_SIZE + wdr_cal_shared_bytes(&v->h) +
+                    (uint32_t)row * v->row_stride;
     return hal_flash_read(addr, fw->cal_row, v->row_stride);
 }

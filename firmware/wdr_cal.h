@@ -12,10 +12,12 @@
 
 #define WDR_CAL_MAGIC 0x4c414357u /* "WCAL" */
 #define WDR_CAL_VERSION_MAJOR 1
-#define WDR_CAL_VERSION_MINOR 0
+#define WDR_CAL_VERSION_MINOR 1 /* 1: the BASIS form and its shared block */
 #define WDR_CAL_HEADER_SIZE 64u
 #define WDR_CAL_MAX_COEFFS 8u
 #define WDR_CAL_MAX_WIDTH 4096u
+/* BASIS: at most this many float32 in the shared block (16 KiB), so a firmware can hold it in RAM */
+#define WDR_CAL_MAX_SHARED_FLOATS 4096u
 
 /* Per-pixel formula. Never renumber: tables in flash use these ids. */
 enum wdr_cal_form {
@@ -23,6 +25,10 @@ enum wdr_cal_form {
     WDR_FORM_MOEBIUS = 1,  /* 3 coefficients p, q, r: v = (p y + q) / (r y + 1) */
     WDR_FORM_POLY = 2,     /* n coefficients c0..c(n-1), u = y * in_scale + in_offset:
                               v = c0 + c1 u + ... + c(n-1) u^(n-1)  (Horner, no divide) */
+    WDR_FORM_BASIS = 3,    /* n coefficients c0..c(n-1) over n shared basis functions B_k tabulated at
+                              K points (minor version 1): t = y * in_scale + in_offset clamped to
+                              [0, K-1], v = sum_k c_k B_k(t), B_k interpolated linearly. The sharp
+                              bends every pixel's map shares live in the shared table */
     WDR_FORM_COUNT
 };
 
@@ -53,36 +59,50 @@ typedef struct wdr_cal_header {
     uint32_t sensor_id;
     uint16_t width, height;
     uint16_t form;         /* enum wdr_cal_form */
-    uint16_t n_coeffs;     /* per pixel: 0 (IDENTITY), 3 (MOEBIUS), 2..8 (POLY) */
+    uint16_t n_coeffs;     /* per pixel: 0 (IDENTITY), 3 (MOEBIUS), 2..8 (POLY, BASIS) */
     uint16_t model;        /* enum wdr_cal_model_id */
     uint16_t operator_id;  /* enum wdr_operator_id of the ramp it was calibrated with */
-    float in_scale;        /* POLY: u = y * in_scale + in_offset keeps u in about [-1, 1] */
+    float in_scale;        /* POLY: u = y * in_scale + in_offset keeps u in about [-1, 1];
+                              BASIS: t = y * in_scale + in_offset is the shared table's position */
     float in_offset;
     float out_scale;       /* output code = round(v * out_scale), clamped to [0, out_max] */
     uint16_t out_max;      /* largest output code */
     uint16_t raw_max;      /* largest raw ADC code (2^bits - 1) */
     uint32_t bad_pixels;   /* number of pixels with a flag set */
-    uint32_t reserved[2];  /* zero */
-    uint32_t payload_len;  /* bytes after the header: height * row_stride */
+    uint32_t shared_points;/* BASIS: K, points per basis function (2..WDR_CAL_MAX_SHARED_FLOATS / n);
+                              zero for the other forms (minor version 0: reserved, zero) */
+    uint32_t reserved;     /* zero */
+    uint32_t payload_len;  /* bytes after the header: shared block + height * row_stride */
     uint32_t payload_crc;  /* CRC-32 of the payload */
     uint32_t header_crc;   /* CRC-32 of header bytes 0..59 */
 } wdr_cal_header;
 
 /* A parsed table pointing into the caller's buffer (no copy), or the identity (no buffer).
  * Row r occupies row_stride bytes at payload + r * row_stride: n_coeffs planes of width float32
- * (plane k holds coefficient k of every pixel of the row), then width flag bytes, padded to 4. */
+ * (plane k holds coefficient k of every pixel of the row), then width flag bytes, padded to 4.
+ * BASIS tables carry a shared block before the first row: K points of n float32 each, point-major
+ * (shared[j * n + k] = B_k at point j), so one pixel's lookups share a cache line. */
 typedef struct wdr_cal_view {
     wdr_cal_header h;
-    const uint8_t *payload; /* NULL for the identity */
+    const uint8_t *payload; /* first row; NULL for the identity */
     uint32_t row_stride;
+    const float *shared;    /* BASIS: the shared block (a firmware may point it at a RAM copy); else NULL */
 } wdr_cal_view;
 
 /* Bytes of one row block and of a whole table (header included). */
 uint32_t wdr_cal_row_stride(uint16_t width, uint16_t n_coeffs);
 size_t wdr_cal_size(uint16_t width, uint16_t height, uint16_t n_coeffs);
+/* Bytes of a BASIS table's shared block (0 for the other forms), and of a whole BASIS table. */
+uint32_t wdr_cal_shared_bytes(const wdr_cal_header *h);
+size_t wdr_cal_size_basis(uint16_t width, uint16_t height, uint16_t n_coeffs, uint32_t shared_points);
 
 /* Coefficients needed by a form (n for POLY is the caller's choice, 2..8). */
 int wdr_cal_form_coeffs_ok(uint16_t form, uint16_t n_coeffs);
+
+/* Check a BASIS shared block: every value finite and no basis function zero at every point
+ * (the per-pixel fit would be rank-deficient and its coefficients arbitrary).
+ * @retval WDR_OK, WDR_E_NUMERIC */
+int wdr_cal_shared_check(const float *shared, uint16_t n_coeffs, uint32_t shared_points);
 
 /* The identity correction for a sensor without a table: output = raw * out_scale.
  * @retval WDR_OK
@@ -92,13 +112,14 @@ int wdr_cal_identity(wdr_cal_view *v, uint32_t sensor_id, uint16_t width, uint16
 
 /* Check and parse a table held in buf; buf must be 4-byte aligned (float loads on Cortex-M7).
  * Every coefficient is checked to be finite and every MOEBIUS denominator positive over
- * [0, raw_max], so the kernel can trust the table.
+ * [0, raw_max], a BASIS shared block by wdr_cal_shared_check, so the kernel can trust the table.
  * @retval WDR_OK
  * @retval WDR_E_TRUNCATED  len shorter than the header or than the payload it promises
  * @retval WDR_E_CORRUPT    bad magic, header CRC or payload CRC
  * @retval WDR_E_VERSION    major version not 1
  * @retval WDR_E_INVAL      a field out of range, misaligned buffer, reserved field not zero
- * @retval WDR_E_NUMERIC    a coefficient is NaN/Inf or a denominator can reach zero */
+ * @retval WDR_E_NUMERIC    a coefficient or shared value is NaN/Inf, a denominator can reach zero,
+ *                          or a basis function is zero everywhere */
 int wdr_cal_parse(const void *buf, size_t len, wdr_cal_view *out);
 
 /* Check that a parsed table belongs to this sensor.
@@ -113,5 +134,9 @@ const uint8_t *wdr_cal_row_flags(const wdr_cal_view *v, int row);
  * coefficients coeffs[(k * height + row) * width + col] and flags[row * width + col], into out,
  * which must hold wdr_cal_size(...) bytes. Host side; the firmware only parses. */
 void wdr_cal_encode(wdr_cal_header *h, const float *coeffs, const uint8_t *flags, uint8_t *out);
+/* The same for a BASIS table (h->form, h->n_coeffs, h->shared_points set): shared holds
+ * shared_points * n_coeffs values, point-major; out holds wdr_cal_size_basis(...) bytes. */
+void wdr_cal_encode_basis(wdr_cal_header *h, const float *shared, const float *coeffs, const uint8_t *flags,
+                          uint8_t *out);
 
 #endif

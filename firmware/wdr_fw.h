@@ -33,7 +33,7 @@ typedef struct wdr_fw {
     int boot_err;                 /* why the store could not start (0: it did) */
 
     /* Active tables. The LUT lives in RAM (the DAC plays from it); the calibration table stays
-     * in flash and is read a row at a time into cal_row. */
+     * in flash and is read a row at a time into cal_row (its shared block, if any, into cal_shared). */
     uint32_t lut_ram[2][(WDR_FW_LUT_MAX_BYTES + 3u) / 4u]; /* active and staging */
     int lut_buf;                  /* index of the active LUT's buffer */
     int lut_slot, cal_slot;       /* active slots, -1: none */
@@ -42,6 +42,10 @@ typedef struct wdr_fw {
     wdr_lut_view staged_lut;      /* last table that passed wdr_fw_table_check */
     wdr_cal_view staged_cal;
     uint32_t cal_row[WDR_FW_CAL_ROW_MAX_BYTES / 4u];
+    /* A BASIS table's shared block is needed by every row: held in RAM, active and staging, so
+     * checking a new table never disturbs the one in use. */
+    float cal_shared[2][WDR_FW_CAL_SHARED_MAX_FLOATS];
+    int cal_shared_buf;           /* index of the active table's shared block */
 
     /* Frame sequencing */
     uint8_t state;                /* enum wdr_fw_state */

@@ -22,6 +22,9 @@
 #ifndef WDR_FW_MAX_CAL_COEFFS
 #define WDR_FW_MAX_CAL_COEFFS 8u     /* coefficients per pixel the row buffer holds */
 #endif
+#ifndef WDR_FW_CAL_SHARED_MAX_FLOATS
+#define WDR_FW_CAL_SHARED_MAX_FLOATS WDR_CAL_MAX_SHARED_FLOATS /* a BASIS table's shared block, in RAM */
+#endif
 #ifndef WDR_FW_TX_SLOTS
 #define WDR_FW_TX_SLOTS 3u           /* outgoing frames: one in flight, the rest being filled */
 #endif
@@ -47,6 +50,9 @@
 #endif
 #if WDR_FW_MAX_CAL_COEFFS > WDR_CAL_MAX_COEFFS || WDR_FW_MAX_CAL_COEFFS < 3
 #error "WDR_FW_MAX_CAL_COEFFS must hold a Moebius row (3) and at most WDR_CAL_MAX_COEFFS"
+#endif
+#if WDR_FW_CAL_SHARED_MAX_FLOATS > WDR_CAL_MAX_SHARED_FLOATS
+#error "WDR_FW_CAL_SHARED_MAX_FLOATS exceeds what a calibration table can hold"
 #endif
 #if WDR_FW_TX_SLOTS < 2 || WDR_FW_TX_SLOTS > 255
 #error "WDR_FW_TX_SLOTS: READOUT needs one frame in flight and one being filled"

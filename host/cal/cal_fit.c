@@ -10,8 +10,11 @@ void wdr_cal_config_defaults(wdr_cal_config *c, int model)
 {
     memset(c, 0, sizeof *c);
     c->model = model;
-    c->form = model == WDR_MODEL_SIMPLE3 ? WDR_FORM_MOEBIUS : WDR_FORM_POLY;
-    c->n_coeffs = model == WDR_MODEL_SIMPLE3 ? 3 : 5;
+    /* SIMPLE3: Moebius is exact. SPLINE (the N-current model, any operator): the shared basis, as
+     * a polynomial of <= 8 coefficients leaves 2-11 % on Drago and Tumblin-Rushmeier (their maps
+     * bend within a few codes; tests/calibration/test_cal_sim.c). The others: polynomial. */
+    c->form = model == WDR_MODEL_SIMPLE3 ? WDR_FORM_MOEBIUS : model == WDR_MODEL_SPLINE ? WDR_FORM_BASIS : WDR_FORM_POLY;
+    c->n_coeffs = model == WDR_MODEL_SIMPLE3 ? 3 : model == WDR_MODEL_SPLINE ? 8 : 5;
     c->use_dark_ref = model == WDR_MODEL_SIMPLE3 || model == WDR_MODEL_COMPLEX4;
     c->raw_max = 4095;
     /* corrected codes in the raw codes' own range, as frames without a table: what the host tools

@@ -1,4 +1,6 @@
-/* From fitted pixels to the firmware table: per-pixel coefficients of nominal(model^-1(y)). */
+/* From fitted pixels to the firmware table: per-pixel coefficients of nominal(model^-1(y)),
+ * for the BASIS form over a shared table learnt from the array (cal_basis.c). */
+#include "cal_basis.h"
 #include "cal_fit.h"
 #include "wdr_err.h"
 #include <math.h>
@@ -75,26 +77,52 @@ static double pixel_response(const wdr_cal_result *res, long i, double x)
 
 /* Sample codes for the map: exact pixel responses for the paper models; for LSQ (which models
  * the inverse only) the two ends by bisection and the nominal curve's spacing in between. */
-static void sample_codes(const wdr_cal_result *res, long i, const double *xs, double *ys)
+static void sample_codes(const wdr_cal_result *res, long i, const double *xs, double *ys, int m)
 {
     if (res->model == WDR_MODEL_SPLINE) { /* one curve for all samples */
         wdr_pchip c;
         const double *p = res->params + i * res->n_params;
         int bad = wdr_pchip_init(&c, res->nominal.curve.lx, p, res->nominal.curve.n);
-        for (int k = 0; k < MAP_SAMPLES; k++)
+        for (int k = 0; k < m; k++)
             ys[k] = bad ? 0 : wdr_pchip_eval(&c, log(xs[k]));
         return;
     }
     if (res->model != WDR_MODEL_LSQ) {
-        for (int k = 0; k < MAP_SAMPLES; k++)
+        for (int k = 0; k < m; k++)
             ys[k] = pixel_response(res, i, xs[k]);
         return;
     }
     const wdr_nominal *n = &res->nominal;
-    double y0 = code_for_current(res, i, xs[0]), y1 = code_for_current(res, i, xs[MAP_SAMPLES - 1]);
-    double n0 = wdr_nominal_eval(n, xs[0]), n1 = wdr_nominal_eval(n, xs[MAP_SAMPLES - 1]);
-    for (int k = 0; k < MAP_SAMPLES; k++)
+    double y0 = code_for_current(res, i, xs[0]), y1 = code_for_current(res, i, xs[m - 1]);
+    double n0 = wdr_nominal_eval(n, xs[0]), n1 = wdr_nominal_eval(n, xs[m - 1]);
+    for (int k = 0; k < m; k++)
         ys[k] = y1 + (wdr_nominal_eval(n, xs[k]) - n1) * (y0 - y1) / (n0 - n1);
+}
+
+/* Sample k of m of the map: the current it stands for (the paper models and the spline invert
+ * their own response exactly; LSQ recovers it from the code), its target and contrast weight. */
+static void map_target(const wdr_cal_result *res, long i, double xk, double yk, double *t, double *w)
+{
+    int st;
+    double x = res->model == WDR_MODEL_LSQ ? wdr_cal_recover(res, i, yk, &st) : xk;
+    *t = wdr_nominal_eval(&res->nominal, x);
+    *w = 1 / fmax(wdr_nominal_log_slope(&res->nominal, fmax(x, res->nominal.x_lo)), 1e-9);
+}
+
+static void log_spaced(const wdr_cal_result *res, double *xs, int m)
+{
+    double lx0 = log(res->nominal.x_lo), lx1 = log(res->nominal.x_hi);
+    for (int k = 0; k < m; k++)
+        xs[k] = exp(lx0 + (lx1 - lx0) * k / (m - 1));
+}
+
+void wdr_cal_map_samples(const wdr_cal_result *res, long i, wdr_map_samples *s)
+{
+    double xs[WDR_BASIS_SAMPLES];
+    log_spaced(res, xs, WDR_BASIS_SAMPLES);
+    sample_codes(res, i, xs, s->y, WDR_BASIS_SAMPLES);
+    for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
+        map_target(res, i, xs[k], s->y[k], &s->t[k], &s->w[k]);
 }
 
 /* Least-squares polynomial in u = 2y/raw_max - 1 through samples of the exact map over the
@@ -102,19 +130,14 @@ static void sample_codes(const wdr_cal_result *res, long i, const double *xs, do
 static int poly_coeffs(const wdr_cal_result *res, long i, int nc, double *c)
 {
     double a[MAP_SAMPLES * WDR_CAL_MAX_COEFFS], t[MAP_SAMPLES], w[MAP_SAMPLES], xs[MAP_SAMPLES], ys[MAP_SAMPLES];
-    double lx0 = log(res->nominal.x_lo), lx1 = log(res->nominal.x_hi), rcond;
-    int st;
-    for (int k = 0; k < MAP_SAMPLES; k++)
-        xs[k] = exp(lx0 + (lx1 - lx0) * k / (MAP_SAMPLES - 1));
-    sample_codes(res, i, xs, ys);
+    double rcond;
+    log_spaced(res, xs, MAP_SAMPLES);
+    sample_codes(res, i, xs, ys, MAP_SAMPLES);
     for (int k = 0; k < MAP_SAMPLES; k++) {
-        /* the paper models and the spline invert their own response exactly: x is the sample's */
         double u = 2 * ys[k] / res->cfg.raw_max - 1, pw = 1;
-        double x = res->model == WDR_MODEL_LSQ ? wdr_cal_recover(res, i, ys[k], &st) : xs[k];
         for (int j = 0; j < nc; j++, pw *= u)
             a[k * nc + j] = pw;
-        t[k] = wdr_nominal_eval(&res->nominal, x);
-        w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, fmax(x, res->nominal.x_lo)), 1e-9);
+        map_target(res, i, xs[k], ys[k], &t[k], &w[k]);
     }
     if (wdr_lsq_solve(a, t, w, MAP_SAMPLES, nc, c, &rcond))
         return 0;
@@ -124,17 +147,22 @@ static int poly_coeffs(const wdr_cal_result *res, long i, int nc, double *c)
 static void identity_coeffs(const wdr_cal_result *res, int form, int nc, double *c)
 {
     memset(c, 0, sizeof(double) * (size_t)nc);
-    if (form == WDR_FORM_MOEBIUS) {
-        c[0] = 1;
+    if (form == WDR_FORM_MOEBIUS || form == WDR_FORM_BASIS) {
+        c[0] = 1; /* BASIS: the first function is the array's mean map */
         return;
     }
     c[0] = c[1] = res->cfg.raw_max / 2; /* v = y with u = 2y/raw_max - 1 */
 }
 
-static int pixel_coeffs(const wdr_cal_result *res, long i, int form, int nc, double *c)
+static int pixel_coeffs(const wdr_cal_result *res, const wdr_basis *basis, long i, int form, int nc, double *c)
 {
     if (res->flags[i])
         return 0;
+    if (form == WDR_FORM_BASIS) {
+        wdr_map_samples s;
+        wdr_cal_map_samples(res, i, &s);
+        return wdr_cal_basis_coeffs(basis, &s, c);
+    }
     if (form == WDR_FORM_MOEBIUS)
         return res->model == WDR_MODEL_SIMPLE3 && moebius_coeffs(res, i, c);
     if (res->model == WDR_MODEL_POLYMAP) {
@@ -158,7 +186,7 @@ static int check_form(const wdr_cal_result *res, char *err, int errlen)
         snprintf(err, (size_t)errlen, "the Moebius table form is exact only for the 3-parameter model");
         return WDR_E_INVAL;
     }
-    if (res->model == WDR_MODEL_POLYMAP && nc != res->n_params) {
+    if (cfg->form == WDR_FORM_POLY && res->model == WDR_MODEL_POLYMAP && nc != res->n_params) {
         snprintf(err, (size_t)errlen, "POLYMAP fitted %d coefficients, table asks for %d", res->n_params, nc);
         return WDR_E_INVAL;
     }
@@ -179,11 +207,18 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     const wdr_cal_config *cfg = &res->cfg;
     int form = cfg->form, nc = form == WDR_FORM_MOEBIUS ? 3 : cfg->n_coeffs;
     long np = (long)res->width * res->height;
-    size_t len = wdr_cal_size((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc);
+    wdr_basis basis = {0};
+    if (form == WDR_FORM_BASIS && (rc = wdr_cal_basis_learn(res, nc, &basis, err, errlen)))
+        return rc;
+    size_t len = form == WDR_FORM_BASIS
+                     ? wdr_cal_size_basis((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc,
+                                          (uint32_t)basis.points)
+                     : wdr_cal_size((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc);
     float *coeffs = malloc(sizeof(float) * (size_t)nc * (size_t)np);
     uint8_t *flags = malloc((size_t)np), *buf = aligned_alloc(8, (len + 7) & ~(size_t)7);
     if (!coeffs || !flags || !buf) {
         free(coeffs), free(flags), free(buf);
+        wdr_cal_basis_free(&basis);
         snprintf(err, (size_t)errlen, "out of memory for a %zu-byte table", len);
         return WDR_E_NOMEM;
     }
@@ -191,7 +226,7 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     for (long i = 0; i < np; i++) {
         double c[WDR_CAL_MAX_COEFFS];
         flags[i] = res->flags[i];
-        if (!pixel_coeffs(res, i, form, nc, c)) {
+        if (!pixel_coeffs(res, &basis, i, form, nc, c)) {
             identity_coeffs(res, form, nc, c);
             flags[i] |= flags[i] ? 0 : WDR_PIX_UNFIT;
         }
@@ -204,7 +239,13 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
                         .operator_id = (uint16_t)operator_id, .in_scale = (float)(2 / cfg->raw_max),
                         .in_offset = -1.0f, .out_scale = cfg->out_scale, .out_max = cfg->out_max,
                         .raw_max = (uint16_t)cfg->raw_max, .bad_pixels = bad};
-    wdr_cal_encode(&h, coeffs, flags, buf);
+    if (form == WDR_FORM_BASIS) {
+        h.in_scale = (float)(1 / basis.step), h.in_offset = (float)(-basis.lo / basis.step); /* as kernel_basis */
+        h.shared_points = (uint32_t)basis.points;
+        wdr_cal_encode_basis(&h, basis.table, coeffs, flags, buf);
+    } else
+        wdr_cal_encode(&h, coeffs, flags, buf);
+    wdr_cal_basis_free(&basis);
     free(coeffs);
     free(flags);
     *out = buf;

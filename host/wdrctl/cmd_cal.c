@@ -28,6 +28,7 @@
 typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
     int select_n, frames, adc, dac, upload, json, sample, out_scale;
+    int form; /* enum wdr_cal_form; -1: the model's default */
     unsigned long seed;
 } cal_opts;
 
@@ -52,6 +53,21 @@ static int parse_count(const char *opt, const char *v, int lo, int hi, int *out)
     return EX_OK;
 }
 
+static int form_from_name(const char *name, int *form)
+{
+    static const struct { const char *name; int id; } names[] = {
+        {"moebius", WDR_FORM_MOEBIUS}, {"poly", WDR_FORM_POLY}, {"basis", WDR_FORM_BASIS}};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        if (!strcmp(name, names[i].name))
+            return *form = names[i].id, EX_OK;
+    return wdrctl_fail(EX_USAGE, "option --form: unknown table form '%s' (known: moebius, poly, basis)", name);
+}
+
+static const char *form_name(int form)
+{
+    return form == WDR_FORM_MOEBIUS ? "moebius" : form == WDR_FORM_BASIS ? "basis" : "poly";
+}
+
 static int set_option(int c, const char *arg, cal_opts *o)
 {
     switch (c) {
@@ -73,6 +89,7 @@ static int set_option(int c, const char *arg, cal_opts *o)
     case 'a': return parse_on_off("--adc", arg, &o->adc);
     case 'D': return parse_on_off("--dac", arg, &o->dac);
     case 's': o->seed = strtoul(arg, NULL, 0); return EX_OK;
+    case 'F': return form_from_name(arg, &o->form);
     default: return EX_USAGE;
     }
 }
@@ -89,8 +106,9 @@ static int parse_options(int argc, char **argv, const char *cmd, cal_opts *o)
         {"sample", required_argument, NULL, 'P'},   {"adc", required_argument, NULL, 'a'},
         {"dac", required_argument, NULL, 'D'},      {"seed", required_argument, NULL, 's'},
         {"lut", required_argument, NULL, 'l'},      {"out-scale", required_argument, NULL, 'S'},
-        {NULL, 0, NULL, 0}};
-    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .adc = 1, .dac = 1, .sample = 256, .seed = 1, .out_scale = 1};
+        {"form", required_argument, NULL, 'F'},     {NULL, 0, NULL, 0}};
+    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .adc = 1, .dac = 1, .sample = 256, .seed = 1, .out_scale = 1,
+                    .form = -1};
     optind = 1;
     int c;
     while ((c = getopt_long(argc, argv, "o:", longopts, NULL)) != -1) {
@@ -448,7 +466,7 @@ static void print_summary(const cal_opts *o, const cal_run *r)
     const wdr_cal_result *res = &r->res;
     if (!o->json) {
         printf("model %s, table form %s (%d coefficients), %ld of %ld pixels flagged\ncurrents:", model_name(res->model),
-               r->cfg.form == WDR_FORM_MOEBIUS ? "moebius" : "poly", r->cfg.form == WDR_FORM_MOEBIUS ? 3 : r->cfg.n_coeffs,
+               form_name(r->cfg.form), r->cfg.form == WDR_FORM_MOEBIUS ? 3 : r->cfg.n_coeffs,
                res->n_bad, (long)res->width * res->height);
         for (int k = 0; k < r->choice.n; k++)
             printf(" %.4g", r->choice.amps[k]);
@@ -457,7 +475,7 @@ static void print_summary(const cal_opts *o, const cal_run *r)
     }
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "model", model_name(res->model));
-    cJSON_AddStringToObject(j, "form", r->cfg.form == WDR_FORM_MOEBIUS ? "moebius" : "poly");
+    cJSON_AddStringToObject(j, "form", form_name(r->cfg.form));
     cJSON_AddNumberToObject(j, "coefficients", r->cfg.form == WDR_FORM_MOEBIUS ? 3 : r->cfg.n_coeffs);
     cJSON_AddItemToObject(j, "currents_A", cJSON_CreateDoubleArray(r->choice.amps, r->choice.n));
     cJSON_AddNumberToObject(j, "range_lo_A", r->lo);
@@ -532,6 +550,10 @@ int cmd_calibrate(int argc, char **argv)
         return wdrctl_fail(EX_USAGE, "calibrate: --upload and --lut need --device");
     cal_run r = {0};
     wdr_cal_config_defaults(&r.cfg, model);
+    if (o.form == WDR_FORM_MOEBIUS && model != WDR_MODEL_SIMPLE3)
+        return wdrctl_fail(EX_USAGE, "calibrate: --form moebius is exact only for --model simple3");
+    if (o.form >= 0)
+        r.cfg.form = o.form;
     if (o.device) {
         device_src d;
         wdr_cal_source src;
@@ -812,7 +834,7 @@ static cJSON *model_json(const model_report *m)
     cJSON *j = cJSON_CreateObject();
     const cal_run *r = &m->run;
     cJSON_AddStringToObject(j, "model", model_name(m->model));
-    cJSON_AddStringToObject(j, "table_form", r->cfg.form == WDR_FORM_MOEBIUS ? "moebius" : "poly");
+    cJSON_AddStringToObject(j, "table_form", form_name(r->cfg.form));
     cJSON_AddNumberToObject(j, "table_coefficients", r->cfg.form == WDR_FORM_MOEBIUS ? 3 : r->cfg.n_coeffs);
     cJSON_AddItemToObject(j, "currents_A", cJSON_CreateDoubleArray(r->choice.amps, r->choice.n));
     cJSON_AddNumberToObject(j, "selection_worst_pct", r->choice.worst_pct);

@@ -1,7 +1,8 @@
 /* Accuracy vs time for the on-the-fly correction: per table form, the firmware kernel's
  * ns/pixel against memcpy in the same run (of the raw frame alone, and of every byte the kernel
  * streams: raw in, table, corrected out), and the residual contrast error each form leaves on the
- * simulator (worst over 31 currents, 1e-14..1e-8 A, Reinhard, no DAC/ADC quantisation).
+ * simulator (worst over 31 currents, 1e-14..1e-8 A, Reinhard, no DAC/ADC quantisation; the forms
+ * on every operator are in bench_cal's last table).
  * Prints a table; asserts nothing about speed. --quick uses a small frame. */
 #include "cal_select.h"
 #include "correct.h"
@@ -33,6 +34,8 @@ static const form_row forms[] = {
     {"poly-5 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 5},
     {"poly-5 (4-parameter fit)", WDR_MODEL_COMPLEX4, WDR_FORM_POLY, 5},
     {"poly-8 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 8},
+    {"basis-4, shared 16 KiB (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_BASIS, 4},
+    {"basis-8, shared 16 KiB (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_BASIS, 8},
 };
 
 /* ---- accuracy: calibrate a 64x48 chip and judge the table path ---- */
@@ -124,9 +127,23 @@ static uint8_t *synthetic_table(const form_row *f, int w, int h, size_t *len)
     wdr_cal_header hd = {.sensor_id = 1, .width = (uint16_t)w, .height = (uint16_t)h, .form = (uint16_t)f->form,
                          .n_coeffs = (uint16_t)nc, .model = WDR_MODEL_SPLINE, .in_scale = 2.0f / 4095,
                          .in_offset = -1, .out_scale = 16, .out_max = 65535, .raw_max = 4095, .bad_pixels = 1};
-    *len = wdr_cal_size((uint16_t)w, (uint16_t)h, (uint16_t)nc);
-    uint8_t *buf = aligned_alloc(64, (*len + 63) & ~(size_t)63);
-    wdr_cal_encode(&hd, coeffs, flags, buf);
+    uint8_t *buf;
+    if (f->form == WDR_FORM_BASIS) { /* the largest shared block: a full 16 KiB, in the cache as in RAM */
+        uint32_t points = WDR_CAL_MAX_SHARED_FLOATS / (uint32_t)nc;
+        float *shared = malloc(sizeof(float) * WDR_CAL_MAX_SHARED_FLOATS);
+        for (uint32_t j = 0; j < points * (uint32_t)nc; j++)
+            shared[j] = (float)(1 + sin(0.01 * j));
+        hd.shared_points = points;
+        hd.in_scale = (float)(points - 1) / 4095, hd.in_offset = 0;
+        *len = wdr_cal_size_basis((uint16_t)w, (uint16_t)h, (uint16_t)nc, points);
+        buf = aligned_alloc(64, (*len + 63) & ~(size_t)63);
+        wdr_cal_encode_basis(&hd, shared, coeffs, flags, buf);
+        free(shared);
+    } else {
+        *len = wdr_cal_size((uint16_t)w, (uint16_t)h, (uint16_t)nc);
+        buf = aligned_alloc(64, (*len + 63) & ~(size_t)63);
+        wdr_cal_encode(&hd, coeffs, flags, buf);
+    }
     free(coeffs);
     free(flags);
     return buf;
@@ -171,7 +188,7 @@ int main(int argc, char **argv)
     uint16_t *raw = malloc(sizeof(uint16_t) * (size_t)np), *out = malloc(sizeof(uint16_t) * (size_t)np);
     for (long i = 0; i < np; i++)
         raw[i] = (uint16_t)(400 + (i * 7919) % 2800);
-    size_t big = (size_t)np * (2 + 2 + 8 * 4 + 1) + 4096;
+    size_t big = (size_t)np * (2 + 2 + 8 * 4 + 1) + 4096 + 4 * WDR_CAL_MAX_SHARED_FLOATS; /* + a shared block */
     uint8_t *src = malloc(big), *dst = malloc(big);
     memset(src, 1, big);
     memset(dst, 0, big);

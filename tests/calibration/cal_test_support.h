@@ -20,9 +20,12 @@
     } while (0)
 #endif
 
-/* Every float of a table's coefficient planes is finite (the parser checks it too). */
+/* Every float of a table's coefficient planes and shared block is finite (the parser checks it too). */
 static inline int table_all_finite(const wdr_cal_view *v)
 {
+    for (uint32_t j = 0; v->shared && j < v->h.shared_points * v->h.n_coeffs; j++)
+        if (!isfinite(v->shared[j]))
+            return 0;
     for (int r = 0; r < v->h.height; r++)
         for (int k = 0; k < v->h.n_coeffs; k++) {
             const float *c = wdr_cal_row_coeffs(v, r, k);

@@ -204,6 +204,84 @@ static void table_bad_numbers_refused(void **state)
     free(buf);
 }
 
+/* A 3x1 BASIS table over K = 3 points at codes 0, 1000, 2000 (in_scale 1e-3): B0 = 1, 2, 4 and
+ * B1 = 0, 10, 0, so v = c0 B0(t) + c1 B1(t) is known by hand at every code. */
+static uint8_t *basis_table(size_t *len, const float *shared, uint32_t points)
+{
+    float coeffs[2 * 3] = {100, 200, 300, 1, 2, 3};
+    uint8_t flags[3] = {0};
+    wdr_cal_header h = {.sensor_id = 3, .width = 3, .height = 1, .form = WDR_FORM_BASIS, .n_coeffs = 2,
+                        .model = WDR_MODEL_SPLINE, .in_scale = 1e-3f, .in_offset = 0, .out_scale = 1,
+                        .out_max = 65535, .raw_max = 4095, .shared_points = points};
+    *len = wdr_cal_size_basis(3, 1, 2, points);
+    uint8_t *buf = aligned_alloc(8, (*len + 7) & ~(size_t)7);
+    wdr_cal_encode_basis(&h, shared, coeffs, flags, buf);
+    return buf;
+}
+
+static void basis_table_round_trip_and_kernel(void **state)
+{
+    (void)state;
+    static const float shared[3 * 2] = {1, 0, 2, 10, 4, 0}; /* point-major: (B0, B1) per point */
+    size_t len;
+    wdr_cal_view v;
+    uint8_t *buf = basis_table(&len, shared, 3);
+    assert_int_equal(wdr_get_u16(buf + 6), 1); /* the minor version that added the form */
+    assert_int_equal(wdr_cal_parse(buf, len, &v), WDR_OK);
+    assert_non_null(v.shared);
+    assert_int_equal(v.h.shared_points, 3);
+    uint16_t raw[3] = {500, 1000, 4000}, out[3];
+    assert_int_equal(wdr_correct_row(&v, 0, raw, out), WDR_OK);
+    assert_int_equal(out[0], 100 * 1.5 + 1 * 5);   /* halfway between points 0 and 1 */
+    assert_int_equal(out[1], 200 * 2 + 2 * 10);    /* on point 1 */
+    assert_int_equal(out[2], 300 * 4 + 3 * 0);     /* beyond the last point: clamped to it */
+    float rawf[3] = {NAN, -INFINITY, 1500}, outf[3];
+    assert_int_equal(wdr_correct_row_f32(&v, 0, rawf, outf), WDR_OK);
+    assert_double_equal(outf[0], 100 * 1, 1e-3); /* NaN lands on point 0 */
+    assert_double_equal(outf[1], 200 * 1, 1e-3);
+    assert_double_equal(outf[2], 300 * 3 + 3 * 5, 1e-3);
+    free(buf);
+}
+
+/* NaN or Inf in the shared block, a basis function zero everywhere, or a point count out of
+ * range is refused with good CRCs; so is a shared count on another form. */
+static void basis_table_bad_shared_refused(void **state)
+{
+    (void)state;
+    float shared[3 * 2] = {1, 0, 2, 10, 4, 0};
+    size_t len;
+    wdr_cal_view v;
+    uint8_t *buf;
+    shared[3] = NAN;
+    buf = basis_table(&len, shared, 3);
+    assert_int_equal(wdr_cal_parse(buf, len, &v), WDR_E_NUMERIC);
+    free(buf);
+    shared[3] = INFINITY;
+    buf = basis_table(&len, shared, 3);
+    assert_int_equal(wdr_cal_parse(buf, len, &v), WDR_E_NUMERIC);
+    free(buf);
+    shared[3] = 0; /* B1 = 0, 0, 0: degenerate */
+    buf = basis_table(&len, shared, 3);
+    assert_int_equal(wdr_cal_parse(buf, len, &v), WDR_E_NUMERIC);
+    free(buf);
+    shared[3] = 10;
+    buf = basis_table(&len, shared, 1); /* one point: no interval to interpolate in */
+    assert_int_equal(wdr_cal_parse(buf, len, &v), WDR_E_INVAL);
+    free(buf);
+    float *big = calloc(2 * 2049, sizeof(float));
+    for (int j = 0; j < 2 * 2049; j++)
+        big[j] = 1;
+    buf = basis_table(&len, big, 2049); /* 4098 floats: above the 16 KiB a firmware holds */
+    assert_int_equal(wdr_cal_parse(buf, len, &v), WDR_E_INVAL);
+    free(buf);
+    free(big);
+    buf = small_table(&len, 0); /* a Moebius table naming shared points */
+    wdr_put_u32(buf + 44, 3);
+    wdr_put_u32(buf + 60, wdr_crc32(0, buf, 60));
+    assert_int_equal(wdr_cal_parse(buf, len, &v), WDR_E_INVAL);
+    free(buf);
+}
+
 static void identity_without_table(void **state)
 {
     (void)state;
@@ -294,6 +372,7 @@ int main(void)
         cmocka_unit_test(qr_least_squares_line),       cmocka_unit_test(quadratic_root_without_cancellation),
         cmocka_unit_test(monotone_curve_stays_monotone), cmocka_unit_test(table_round_trip_and_kernel),
         cmocka_unit_test(table_damage_refused),        cmocka_unit_test(table_bad_numbers_refused),
+        cmocka_unit_test(basis_table_round_trip_and_kernel), cmocka_unit_test(basis_table_bad_shared_refused),
         cmocka_unit_test(identity_without_table),      cmocka_unit_test(engine_averages_each_level),
         cmocka_unit_test(lut_margin_extends_the_ramp),
     };

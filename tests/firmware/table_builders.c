@@ -2,6 +2,7 @@
 #include "table_builders.h"
 #include "wdr_cal.h"
 #include "wdr_lut.h"
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -57,3 +58,49 @@ size_t th_make_cal(uint8_t *out, float gain, float offset, uint32_t sensor_id, u
     return wdr_cal_size(w, h, 3);
 }
 
+
+/* A kink at code 2048, on a point of the shared grid, so linear interpolation is exact. */
+float th_basis_curve(float y) { return y < 2048.0f ? y : 2048.0f + 0.5f * (y - 2048.0f); }
+
+float th_basis_expect(int row, int col, float y)
+{
+    return (10.0f + 0.5f * (float)row) + (0.5f + 0.001f * (float)col) * th_basis_curve(y);
+}
+
+#define TH_BASIS_POINTS 1025u
+
+size_t th_make_cal_basis(uint8_t *out, uint32_t sensor_id, uint16_t w, uint16_t h, int poison)
+{
+    static float coeffs[2 * 4096 * 64], shared[2 * TH_BASIS_POINTS];
+    static uint8_t flags[4096 * 64];
+    size_t n = (size_t)w * h;
+    if (n > 4096 * 64)
+        abort();
+    for (uint32_t j = 0; j < TH_BASIS_POINTS; j++) {
+        shared[2 * j] = 1.0f;
+        shared[2 * j + 1] = th_basis_curve(4.0f * (float)j);
+    }
+    if (poison)
+        shared[2 * 300 + 1] = NAN;
+    for (size_t i = 0; i < n; i++) {
+        coeffs[i] = 10.0f + 0.5f * (float)(i / w);
+        coeffs[n + i] = 0.5f + 0.001f * (float)(i % w);
+    }
+    memset(flags, 0, n);
+    wdr_cal_header hd;
+    memset(&hd, 0, sizeof hd);
+    hd.sensor_id = sensor_id;
+    hd.width = w;
+    hd.height = h;
+    hd.form = WDR_FORM_BASIS;
+    hd.n_coeffs = 2;
+    hd.shared_points = TH_BASIS_POINTS;
+    hd.model = WDR_MODEL_SPLINE;
+    hd.operator_id = WDR_OP_DRAGO;
+    hd.in_scale = 0.25f;
+    hd.out_scale = 1.0f;
+    hd.out_max = 4095;
+    hd.raw_max = 4095;
+    wdr_cal_encode_basis(&hd, shared, coeffs, flags, out);
+    return wdr_cal_size_basis(w, h, 2, TH_BASIS_POINTS);
+}

@@ -7,6 +7,7 @@
 #include <cmocka.h>
 #include "crc32.h"
 #include "harness.h"
+#include <math.h>
 #include <string.h>
 
 static wdr_fw fw;
@@ -96,6 +97,46 @@ static void calibration_corrects_every_pixel(void **state)
         }
 }
 
+/* Every pixel of a captured frame is th_basis_expect of its raw code (within the rounding). */
+static void assert_basis_frame(void)
+{
+    assert_int_equal(th_capture_frames(&fw, 1), WDR_ST_OK);
+    assert_int_equal(th_cap.rows, FB_HEIGHT);
+    assert_int_equal(th_cap.last_end.flags & 1, 1);
+    for (int r = 0; r < FB_HEIGHT; r++)
+        for (int c = 0; c < FB_WIDTH; c++) {
+            float want = th_basis_expect(r, c, (float)fb_pattern(r, c));
+            assert_true(fabsf((float)th_cap.px[r][c] - want) <= 0.51f);
+        }
+}
+
+/* A BASIS table (minor version 1): uploads, corrects every pixel through its shared block (held
+ * in RAM, rows streamed from flash after it), survives a reboot; a basis table with a NaN in its
+ * shared block is refused and leaves the active one, shared block included, in use. */
+static void basis_calibration_uploads_survives_reboot_and_corrects(void **state)
+{
+    (void)state;
+    static uint8_t basis[64 + 2 * 1025 * 4 + FB_HEIGHT * (FB_WIDTH * 8 + FB_WIDTH)];
+    size_t len = th_make_cal_basis(basis, FB_SENSOR_ID, FB_WIDTH, FB_HEIGHT, 0);
+    assert_true(len <= sizeof basis);
+    assert_int_equal(th_upload(&fw, WDR_KIND_CAL, basis, (uint32_t)len, 4096, NULL), WDR_ST_OK);
+    assert_int_equal(th_status(&fw).cal_crc, wdr_crc32(0, basis, len));
+    assert_basis_frame();
+    fb_power_cycle();
+    th_boot(&fw);
+    assert_int_equal(th_status(&fw).cal_crc, wdr_crc32(0, basis, len));
+    assert_basis_frame();
+    static uint8_t poisoned[sizeof basis];
+    size_t plen = th_make_cal_basis(poisoned, FB_SENSOR_ID, FB_WIDTH, FB_HEIGHT, 1);
+    assert_int_equal(th_upload(&fw, WDR_KIND_CAL, poisoned, (uint32_t)plen, 4096, NULL), WDR_ST_BAD_TABLE);
+    assert_int_equal(th_status(&fw).cal_crc, wdr_crc32(0, basis, len));
+    assert_basis_frame();
+    /* back to a Moebius table: the other forms are unaffected by a basis table before them */
+    assert_int_equal(th_upload(&fw, WDR_KIND_CAL, cal, (uint32_t)cal_len, 4096, NULL), WDR_ST_OK);
+    assert_int_equal(th_capture_frames(&fw, 1), WDR_ST_OK);
+    assert_int_equal(th_cap.px[3][5], (uint16_t)(0.5f * fb_pattern(3, 5) + 10.0f + 0.5f));
+}
+
 static void busy_while_streaming(void **state)
 {
     (void)state;
@@ -178,6 +219,7 @@ int main(void)
         cmocka_unit_test(capture_without_calibration_is_identity),
         cmocka_unit_test(frame_timing_follows_lut_and_board),
         cmocka_unit_test(calibration_corrects_every_pixel),
+        cmocka_unit_test(basis_calibration_uploads_survives_reboot_and_corrects),
         cmocka_unit_test(busy_while_streaming),
         cmocka_unit_test(retry_is_answered_not_repeated),
         cmocka_unit_test(illuminant_reaches_the_hal),

@@ -116,7 +116,7 @@ static void run_all_models(const wdr_cal_levels *all, const char *what)
     wdr_cal_levels l3, l4;
     with_dark_first(all, k3, 4, &l3);
     with_dark_first(all, k4, 5, &l4);
-    long f[5];
+    long f[6];
     f[0] = run_model(&l3, WDR_MODEL_SIMPLE3, WDR_FORM_MOEBIUS);
     f[1] = run_model(&l4, WDR_MODEL_COMPLEX4, WDR_FORM_POLY);
     wdr_cal_levels plain = *all;
@@ -124,8 +124,9 @@ static void run_all_models(const wdr_cal_levels *all, const char *what)
     f[2] = run_model(&plain, WDR_MODEL_LSQ, WDR_FORM_POLY);
     f[3] = run_model(&plain, WDR_MODEL_POLYMAP, WDR_FORM_POLY);
     f[4] = run_model(&plain, WDR_MODEL_SPLINE, WDR_FORM_POLY);
-    printf("  %s: flagged pixels (of %d) simple3 %ld, complex4 %ld, lsq %ld, polymap %ld, spline %ld\n", what, NP,
-           f[0], f[1], f[2], f[3], f[4]);
+    f[5] = run_model(&plain, WDR_MODEL_SPLINE, WDR_FORM_BASIS);
+    printf("  %s: flagged pixels (of %d) simple3 %ld, complex4 %ld, lsq %ld, polymap %ld, spline %ld, "
+           "spline with the basis table %ld\n", what, NP, f[0], f[1], f[2], f[3], f[4], f[5]);
     l3.dark = l4.dark = NULL;
     wdr_cal_levels_free(&l3);
     wdr_cal_levels_free(&l4);
@@ -279,6 +280,34 @@ static void bad_pixels_flagged(void **state)
     wdr_cal_levels_free(&lv);
 }
 
+/* The shared basis is learnt from the good pixels: with fewer than two per basis function it
+ * would be degenerate, and the table is refused with a message instead of being built. */
+static void basis_from_too_few_good_pixels_refused(void **state)
+{
+    (void)state;
+    double amps[9];
+    wdr_cal_levels lv;
+    wdr_cal_config cfg;
+    wdr_cal_result res;
+    char err[256] = "";
+    uint8_t *tb = NULL;
+    size_t tl;
+    draw_pixels();
+    log_levels(1e-14, 1e-8, 9, amps);
+    make_levels(&lv, amps, 9, 0.0);
+    wdr_cal_config_defaults(&cfg, WDR_MODEL_SPLINE);
+    assert_int_equal(cfg.form, WDR_FORM_BASIS);
+    assert_int_equal(wdr_cal_fit_array(&lv, &cfg, &res, err, sizeof err), WDR_OK);
+    for (int i = 5; i < NP; i++) /* all but five pixels dead: 5 < 2 * 8 */
+        res.flags[i] |= WDR_PIX_DEAD;
+    assert_int_equal(wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err), WDR_E_NUMERIC);
+    assert_null(tb);
+    assert_non_null(strstr(err, "good pixels"));
+    printf("  basis from 5 good pixels: %s\n", err);
+    wdr_cal_result_free(&res);
+    wdr_cal_levels_free(&lv);
+}
+
 /* A whole array whose response does not fall with light: no nominal curve, refused clearly. */
 static void reversed_array_refused(void **state)
 {
@@ -300,7 +329,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(currents_over_eight_decades), cmocka_unit_test(two_currents_within_a_thousandth),
         cmocka_unit_test(negative_discriminant),       cmocka_unit_test(bad_pixels_flagged),
-        cmocka_unit_test(reversed_array_refused),
+        cmocka_unit_test(reversed_array_refused),      cmocka_unit_test(basis_from_too_few_good_pixels_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

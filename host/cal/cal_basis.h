@@ -1,0 +1,35 @@
+/* The BASIS table form's host side (internal to wdr_cal): a shared table of n basis functions of
+ * the raw code, learnt from the array, and each pixel's n coefficients over it. */
+#ifndef WDR_CAL_BASIS_H
+#define WDR_CAL_BASIS_H
+#include "cal_fit.h"
+
+#define WDR_BASIS_SAMPLES 64 /* per pixel: the least-squares solver's row limit */
+
+/* One pixel's exact map at currents log-spaced over the table's range: raw code y[k] should
+ * give the nominal code t[k]; w[k] = 1 / |dy/d ln x| turns a code error into a contrast error. */
+typedef struct wdr_map_samples {
+    double y[WDR_BASIS_SAMPLES], t[WDR_BASIS_SAMPLES], w[WDR_BASIS_SAMPLES];
+} wdr_map_samples;
+
+/* Fill s for pixel i (in cal_table.c, beside the polynomial form's sampling). */
+void wdr_cal_map_samples(const wdr_cal_result *res, long i, wdr_map_samples *s);
+
+/* The shared table: points x n float32, point-major, over raw codes lo + j * step. */
+typedef struct wdr_basis {
+    int n, points;
+    double lo, step;
+    float *table;
+} wdr_basis;
+
+/* Learn the basis from (a sample of) the array's good pixels: principal components of their
+ * contrast-weighted maps, then alternating least squares (pixel coefficients, shared table) on
+ * their samples. @retval WDR_OK, WDR_E_NOMEM, WDR_E_NUMERIC (err says why: too few good pixels,
+ * no code range, a degenerate basis) */
+int wdr_cal_basis_learn(const wdr_cal_result *res, int n, wdr_basis *b, char *err, int errlen);
+void wdr_cal_basis_free(wdr_basis *b);
+
+/* Pixel coefficients over the float32 table, as the kernel evaluates it. 1 when finite. */
+int wdr_cal_basis_coeffs(const wdr_basis *b, const wdr_map_samples *s, double *c);
+
+#endif
