@@ -227,13 +227,15 @@ double sim_adc(const wdr_board *b, double v, int quantise, int clip)
 }
 
 /* Electrons collected until M2 turned off are Poisson (Gaussian at these counts): move the
- * charge balance by one draw and let the crossing settle again from where it was. */
+ * charge balance by one draw and find the crossing again. One sigma is several DAC steps in
+ * bright pixels (hundreds of electrons against tens per step), so the search starts from a
+ * fresh guess for the new charge offset, not from the old crossing (a walk of many steps). */
 static inline sim_cross add_shot_noise(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, long i,
                                        sim_px *p, int k, double t)
 {
     double sigma = sqrt(SIM_Q_E * p->ie * t * plan->fixed.cinv[i * plan->fixed.stride]);
     p->e0 -= sigma * sim_normal((uint32_t)sim_rng_u64(s->frame_seed, SIM_RNG_SHOT, (uint64_t)i));
-    return settle(tab, p, k);
+    return settle(tab, p, refine_guess(tab->node, guess_view(tab), p, k));
 }
 
 #define BATCH 32
