@@ -11,14 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifndef assert_double_equal
-#define assert_double_equal(a, b, eps)                                                                     \
-    do {                                                                                                   \
-        double a_ = (a), b_ = (b);                                                                         \
-        if (!(fabs(a_ - b_) <= (eps)))                                                                     \
-            fail_msg("%s = %.12g, expected %s = %.12g within %g", #a, a_, #b, b_, (double)(eps));          \
-    } while (0)
-#endif
+#include "wdr_test.h"
 
 /* Every float of a table's coefficient planes and shared block is finite (the parser checks it too). */
 static inline int table_all_finite(const wdr_cal_view *v)

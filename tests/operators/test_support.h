@@ -9,15 +9,7 @@
 #include <stdlib.h>
 #include <math.h>
 
-/* cmocka 1.1.5 (Debian 12) has no assert_double_equal; this one also names both values. */
-#ifndef assert_double_equal
-#define assert_double_equal(a, b, eps)                                                                     \
-    do {                                                                                                   \
-        double a_ = (a), b_ = (b);                                                                         \
-        if (!(fabs(a_ - b_) <= (eps)))                                                                     \
-            fail_msg("%s = %.12g, expected %s = %.12g within %g", #a, a_, #b, b_, (double)(eps));          \
-    } while (0)
-#endif
+#include "wdr_test.h"
 
 static inline void load_test_board(const char *name, wdr_board *b)
 {
