@@ -1,6 +1,7 @@
 /* Scene files: cJSON in, a photocurrent map and effect switches out. Bad input is named by
  * file, field and value; nothing here asserts on what a file says. */
 #include "wdr_scene.h"
+#include "file_io.h"
 #include "hdr_image.h"
 #include "wdr_err.h"
 #include <cJSON.h>
@@ -31,25 +32,6 @@ static int fail(scene_ctx *c, int code, const char *field, const char *fmt, ...)
     va_end(ap);
     snprintf(c->err, (size_t)c->errlen, "%s: field '%s': %s", c->path, field, why);
     return code;
-}
-
-static char *read_text(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    char *s = NULL;
-    long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
-    if (n >= 0 && fseek(f, 0, SEEK_SET) == 0 && (s = malloc((size_t)n + 1))) {
-        if (fread(s, 1, (size_t)n, f) != (size_t)n) {
-            free(s);
-            s = NULL;
-        } else {
-            s[n] = 0;
-        }
-    }
-    fclose(f);
-    return s;
 }
 
 /* ---- numbers and strings ---- */
@@ -412,7 +394,7 @@ int wdr_scene_load(const char *path, const wdr_board *b, wdr_scene *out, char *e
     out->height = b->height;
     out->chip_seed = out->frame_seed = 1;
     scene_ctx c = {path, b, out, NULL, err, errlen};
-    char *text = read_text(path);
+    char *text = wdr_read_text(path);
     if (!text) {
         snprintf(err, (size_t)errlen, "%s: cannot read scene file", path);
         return WDR_E_IO;

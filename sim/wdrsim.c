@@ -5,6 +5,7 @@
 #include "wdr_err.h"
 #include "wdr_lut.h"
 #include "wdr_scene.h"
+#include "file_io.h"
 #include "wdr_sim.h"
 #include <cJSON.h>
 #include <stdarg.h>
@@ -138,17 +139,12 @@ static int load_board(const char *name, wdr_board *b)
     return rc ? fail(rc == WDR_E_IO ? EX_NOINPUT : EX_CONFIG, "%s", err) : EX_OK;
 }
 
-static int read_file(const char *path, uint8_t **buf, size_t *len)
+static int read_lut_file(const char *path, uint8_t **buf, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return fail(EX_NOINPUT, "%s: cannot open LUT file", path);
-    long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
-    *buf = n >= 0 && fseek(f, 0, SEEK_SET) == 0 ? malloc((size_t)n + 1) : NULL;
-    int ok = *buf && fread(*buf, 1, (size_t)n, f) == (size_t)n;
-    fclose(f);
-    *len = ok ? (size_t)n : 0;
-    return ok ? EX_OK : fail(EX_IOERR, "%s: cannot read LUT file", path);
+    int rc = wdr_read_file(path, buf, len);
+    if (rc)
+        return fail(rc == WDR_E_IO ? EX_NOINPUT : EX_OSERR, "%s: cannot read LUT file", path);
+    return EX_OK;
 }
 
 static int load_lut(const options *o, const wdr_board *b, uint8_t **bytes, wdr_lut_view *lut)
@@ -159,7 +155,7 @@ static int load_lut(const options *o, const wdr_board *b, uint8_t **bytes, wdr_l
         int rc = wdr_sim_build_lut(b, o->operator_name, bytes, &len, NULL, err, sizeof err);
         if (rc)
             return fail(EX_USAGE, "--operator %s: %s", o->operator_name, err);
-    } else if (read_file(o->lut, bytes, &len)) {
+    } else if (read_lut_file(o->lut, bytes, &len)) {
         return EX_NOINPUT;
     }
     int rc = wdr_lut_parse(*bytes, len, lut);

@@ -1,4 +1,5 @@
 #include "board.h"
+#include "file_io.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
 #include <cJSON.h>
@@ -221,25 +222,6 @@ static int apply_json(wdr_board *b, const cJSON *root, const char *path, char *e
     return WDR_OK;
 }
 
-static char *read_text(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *s = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (s && fread(s, 1, (size_t)n, f) != (size_t)n) {
-        free(s);
-        s = NULL;
-    }
-    if (s)
-        s[n] = 0;
-    fclose(f);
-    return s;
-}
-
 int wdr_board_validate(const wdr_board *b, const char *path, char *err, int errlen)
 {
     char why[160];
@@ -263,7 +245,7 @@ int wdr_board_validate(const wdr_board *b, const char *path, char *err, int errl
 
 int wdr_board_load(const char *path, wdr_board *b, char *err, int errlen)
 {
-    char *text = read_text(path);
+    char *text = wdr_read_text(path);
     if (!text) {
         snprintf(err, (size_t)errlen, "%s: cannot read board file", path);
         return WDR_E_IO;

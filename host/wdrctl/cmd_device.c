@@ -1,6 +1,7 @@
 /* wdrctl commands that talk to a board: devices, info, status, lut upload/select, cal upload,
  * capture, stream, integration, sim illuminant. The board is chosen with --device ADDR or
  * $WDR_DEVICE (sim:/path.sock, usb, usb:BUS-ADDR); failures map to sysexits codes. */
+#include "file_io.h"
 #include "image_io.h"
 #include "transport.h"
 #include "transport_client.h"
@@ -375,22 +376,16 @@ int cmd_status(int argc, char **argv)
 
 /* ---- Uploads ------------------------------------------------------------------------------------ */
 
-static int read_file(const char *path, uint8_t **buf, size_t *len)
+static int read_table_file(const char *path, uint8_t **buf, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return wdrctl_fail(EX_NOINPUT, "cannot open %s: %s", path, strerror(errno));
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    *buf = malloc(n > 0 ? (size_t)n : 1);
-    if (n <= 0 || !*buf || fread(*buf, 1, (size_t)n, f) != (size_t)n) {
-        fclose(f);
+    int rc = wdr_read_file(path, buf, len);
+    if (rc)
+        return wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_OSERR, "cannot read %s: %s", path,
+                           rc == WDR_E_IO ? strerror(errno) : "out of memory");
+    if (*len == 0) {
         free(*buf);
-        return wdrctl_fail(n == 0 ? EX_DATAERR : EX_IOERR, "%s: %s", path, n == 0 ? "empty file" : "cannot read");
+        return wdrctl_fail(EX_DATAERR, "%s: empty file", path);
     }
-    fclose(f);
-    *len = (size_t)n;
     return EX_OK;
 }
 
@@ -429,7 +424,7 @@ static int upload(int argc, char **argv, int kind, const char *cmd)
     uint8_t *buf = NULL;
     size_t len = 0;
     int rc = parse_opts(argc, argv, cmd, OPT_NO_VERIFY, 1, 1, &o);
-    if (rc != EX_OK || (rc = read_file(o.args[0], &buf, &len)) != EX_OK)
+    if (rc != EX_OK || (rc = read_table_file(o.args[0], &buf, &len)) != EX_OK)
         return rc;
     if ((rc = connect_opts(&o, &conn)) != EX_OK) {
         free(buf);

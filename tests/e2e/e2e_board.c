@@ -1,5 +1,6 @@
 /* End-to-end rig (see e2e_board.h). */
 #include "e2e_board.h"
+#include "file_io.h"
 #include "operators.h"
 #include "pixel.h"
 #include "wdr_err.h"
@@ -27,29 +28,10 @@ extern char **environ;
 
 /* ---- Scene ------------------------------------------------------------------------------------ */
 
-static char *read_text(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *s = malloc((size_t)n + 1);
-    if (s && fread(s, 1, (size_t)n, f) == (size_t)n)
-        s[n] = 0;
-    else {
-        free(s);
-        s = NULL;
-    }
-    fclose(f);
-    return s;
-}
-
 /* The bundled default scene, with fixed pattern and noise off: what the software model knows. */
 static int write_quiet_scene(const char *out)
 {
-    char *text = read_text(WDR_SOURCE_DIR "/sim/scenes/window.json");
+    char *text = wdr_read_text(WDR_SOURCE_DIR "/sim/scenes/window.json");
     cJSON *root = text ? cJSON_Parse(text) : NULL;
     free(text);
     if (!root)
@@ -100,7 +82,7 @@ static void print_log(const e2e_board *e)
 {
     char path[160];
     snprintf(path, sizeof path, "%s/board.log", e->dir);
-    char *text = read_text(path);
+    char *text = wdr_read_text(path);
     fprintf(stderr, "wdr-simboard log:\n%s\n", text ? text : "(none)");
     free(text);
 }
