@@ -3,6 +3,7 @@
  * mismatch, static effects on, temporal noise off, no DAC/ADC quantisation); and for the
  * N-current spline, how the number of calibration currents trades frames for accuracy.
  * Prints tables; asserts nothing about speed. --quick uses a small chip. */
+#include "bench_util.h"
 #include "cal_select.h"
 #include "wdr_err.h"
 #include <math.h>
@@ -10,13 +11,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 typedef struct setup {
     wdr_sim *sim;

@@ -4,6 +4,8 @@
  * rendering the same frames (wdr_sim_render): the share of the time the rest of the chain takes
  * (firmware state machine, correction, framing, socket, client). Target: >= 10 frames/s.
  * No assertion on time. --quick: a few frames, for CI. */
+#include "bench_board.h"
+#include "bench_util.h"
 #include "board.h"
 #include "hal.h"
 #include "hal_sim_emul.h"
@@ -21,48 +23,7 @@
 #include <time.h>
 #include <unistd.h>
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
-}
-
-static void *serve(void *arg)
-{
-    (void)arg;
-    hal_sim_serve();
-    return NULL;
-}
-
-static int die(const char *what, const char *why)
-{
-    fprintf(stderr, "bench_capture: %s: %s\n", what, why);
-    return 1;
-}
-
-/* Board, scene and socket in dir; the firmware starts serving in *th. */
-static int start_board(wdr_board *b, const char *dir, char *address, size_t cap, pthread_t *th)
-{
-    char path[512], err[512], sock[128];
-    wdr_scene sc;
-    wdr_board_defaults(b);
-    wdr_board_path("sim-vga", path, sizeof path);
-    if (wdr_board_load(path, b, err, sizeof err) != WDR_OK)
-        return die("board", err);
-    if (wdr_scene_load(WDR_SOURCE_DIR "/sim/scenes/window.json", b, &sc, err, sizeof err) != WDR_OK)
-        return die("scene", err);
-    snprintf(sock, sizeof sock, "%s/board.sock", dir);
-    snprintf(address, cap, "sim:%s", sock);
-    hal_sim_config cfg = {.board = b, .seed = sc.chip_seed, .frame_seed = sc.frame_seed, .socket_path = sock};
-    if (hal_sim_setup(&cfg, err, sizeof err) != WDR_OK)
-        return die("hal_sim_setup", err);
-    wdr_scene_apply(&sc, hal_sim_sensor());
-    wdr_scene_free(&sc);
-    if (hal_init() != WDR_OK || pthread_create(th, NULL, serve, NULL) != 0)
-        return die("firmware", "did not start");
-    return 0;
-}
+static int die(const char *what, const char *why) { return bench_die("bench_capture", what, why); }
 
 static int reinhard_lut(const wdr_board *b, uint8_t **bytes, size_t *len)
 {
@@ -142,7 +103,8 @@ int main(int argc, char **argv)
     pthread_t th;
     uint8_t *lut = NULL;
     size_t lut_len = 0;
-    if (!mkdtemp(dir) || start_board(&b, dir, address, sizeof address, &th) != 0)
+    const char *scene = WDR_SOURCE_DIR "/sim/scenes/window.json";
+    if (!mkdtemp(dir) || bench_start_board("bench_capture", &b, scene, dir, address, sizeof address, &th) != 0)
         return 1;
     int rc = reinhard_lut(&b, &lut, &lut_len);
     if (rc == 0)

@@ -2,6 +2,7 @@
  * alone, and the whole row path the firmware runs (row block of the table copied in as from
  * flash, correction into the ROW frame, frame header and CRC). Prints ns/pixel and ratios;
  * no assertion on time. --quick: a few frames, for CI. */
+#include "bench_util.h"
 #include "correct.h"
 #include "wdr_cal.h"
 #include "wdr_err.h"
@@ -20,13 +21,6 @@ static uint32_t frame_buf[(WDR_PROTO_MAX_FRAME + 3) / 4];
 static uint32_t row_block[(W * 3 * 4 + W) / 4];
 static uint16_t sink[W];
 static volatile uint32_t keep;
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 typedef void (*frame_fn)(void *ctx);
 

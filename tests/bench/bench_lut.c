@@ -1,6 +1,7 @@
 /* Accuracy vs time for DAC ramp tables: build time of a LUT against the worst error of the
  * ideal pixel it drives, for uniform clocks of 256..65536 entries, equal-voltage steps at 8..16
  * DAC bits, and DAC timer resolutions. Prints a table; asserts nothing about speed. */
+#include "bench_util.h"
 #include "board.h"
 #include "operators.h"
 #include "ramp.h"
@@ -10,13 +11,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 /* The fastest update the DAC must sustain: the hardware cost of a table. */
 static double min_step_ns(const wdr_lut_view *v)

@@ -3,6 +3,8 @@
  * answer each, COMMIT with read-back CRC, and the board's flash programming behind it. Beside
  * them, in the same run, the same bytes pushed through a bare socketpair: the link's ceiling.
  * Prints MB/s; no assertion on time. --quick: fewer repetitions, for CI. */
+#include "bench_board.h"
+#include "bench_util.h"
 #include "board.h"
 #include "hal.h"
 #include "hal_sim_emul.h"
@@ -20,42 +22,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
-}
-
-static void *serve(void *arg)
-{
-    (void)arg;
-    hal_sim_serve();
-    return NULL;
-}
-
-static int die(const char *what, const char *why)
-{
-    fprintf(stderr, "bench_upload: %s: %s\n", what, why);
-    return 1;
-}
-
-static int start_board(wdr_board *b, const char *dir, char *address, size_t cap, pthread_t *th)
-{
-    char path[512], err[512], sock[128];
-    wdr_board_defaults(b);
-    wdr_board_path("sim-vga", path, sizeof path);
-    if (wdr_board_load(path, b, err, sizeof err) != WDR_OK)
-        return die("board", err);
-    snprintf(sock, sizeof sock, "%s/board.sock", dir);
-    snprintf(address, cap, "sim:%s", sock);
-    hal_sim_config cfg = {.board = b, .seed = 1, .socket_path = sock};
-    if (hal_sim_setup(&cfg, err, sizeof err) != WDR_OK)
-        return die("hal_sim_setup", err);
-    if (hal_init() != WDR_OK || pthread_create(th, NULL, serve, NULL) != 0)
-        return die("firmware", "did not start");
-    return 0;
-}
+static int die(const char *what, const char *why) { return bench_die("bench_upload", what, why); }
 
 /* A LUT of the largest size the firmware keeps: a uniform ramp, one step per tick. */
 static uint8_t *big_lut(const wdr_board *b, size_t *len)
@@ -184,7 +151,7 @@ int main(int argc, char **argv)
     char dir[] = "/tmp/wdr-bench-XXXXXX", address[160];
     wdr_board b;
     pthread_t th;
-    if (!mkdtemp(dir) || start_board(&b, dir, address, sizeof address, &th) != 0)
+    if (!mkdtemp(dir) || bench_start_board("bench_upload", &b, NULL, dir, address, sizeof address, &th) != 0)
         return 1;
     int rc = measure(address, &b, quick ? 1 : 5);
     hal_sim_request_stop();
