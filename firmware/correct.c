@@ -5,6 +5,16 @@
 #include "wdr_err.h"
 #include <string.h>
 
+/* Four pixels at a time where the target has 4-float vectors (SSE2, AArch64 NEON) and the
+ * compiler has GCC/clang vector extensions; everywhere else (Cortex-M7: one FPU, no float
+ * SIMD) the plain loop, which is the fastest there. WDR_CORRECT_SCALAR forces the plain loop
+ * (a test runs it on the host, so the firmware's own loop is checked too). */
+#if !defined(WDR_CORRECT_SCALAR) && defined(__has_builtin) && (defined(__SSE2__) || defined(__aarch64__))
+#if __has_builtin(__builtin_shufflevector) && __has_builtin(__builtin_convertvector)
+#define WDR_CORRECT_V4 1
+#endif
+#endif
+
 /* Scale to output codes and clamp: the comparisons also map NaN to 0, so nothing non-finite
  * leaves the kernel whatever the input. */
 static inline float to_output(float v, float out_scale, float out_max)
@@ -134,8 +144,170 @@ static inline void basis_u16_n(const wdr_cal_view *cal, int row, const uint16_t 
     }
 }
 
+/* ---- BASIS with one shared point per raw code (wdr_correct_per_code): t(y) = y, so a pixel is
+ * one dot product of its coefficients with its code's point, no position, no interpolation ---- */
+
+/* The view came from wdr_correct_per_code, or any BASIS table whose points are the raw codes:
+ * then t(y) is the integer y clamped to [0, K-1] and the kernel only has to pick the point. */
+static int points_are_codes(const wdr_cal_view *cal)
+{
+    return cal->h.in_scale == 1.0f && cal->h.in_offset == 0.0f;
+}
+
+/* The point of code y: codes above the last point (not from this ADC) take the last one, as the
+ * interpolating path clamps t. */
+static inline const float *code_point(const float *points, uint32_t top, uint16_t y, const int n)
+{
+    return points + (size_t)(y < top ? y : top) * (size_t)n;
+}
+
+/* Even and odd k in two sums, so the multiply-adds do not all wait on one another; both loops
+ * below add in exactly this order, so a host and the controller agree to the bit. */
+static inline float code_dot(const float *const *c, int i, const float *p, const int n)
+{
+    float even = 0.0f, odd = 0.0f;
+    for (int k = 0; k + 1 < n; k += 2) {
+        even += c[k][i] * p[k];
+        odd += c[k + 1][i] * p[k + 1];
+    }
+    if (n & 1)
+        even += c[n - 1][i] * p[n - 1];
+    return even + odd;
+}
+
+#ifdef WDR_CORRECT_V4
+typedef float wdr_v4f __attribute__((vector_size(16)));
+typedef int32_t wdr_v4i __attribute__((vector_size(16)));
+typedef uint16_t wdr_v4u16 __attribute__((vector_size(8)));
+
+/* m (a literal, 1..4) floats from p, the rest zero: the last group of n coefficients must not
+ * read past the last code's point. */
+static inline wdr_v4f v4_load(const float *p, const int m)
+{
+    wdr_v4f v = {0.0f, 0.0f, 0.0f, 0.0f};
+    memcpy(&v, p, (size_t)m * sizeof(float));
+    return v;
+}
+
+/* Four pixels' points (one per row of r) become four vectors of one basis function each
+ * (lane = pixel), so the coefficient planes multiply them lane by lane. */
+static inline void v4_transpose(wdr_v4f r[4])
+{
+    wdr_v4f t0 = __builtin_shufflevector(r[0], r[1], 0, 4, 1, 5), t1 = __builtin_shufflevector(r[0], r[1], 2, 6, 3, 7);
+    wdr_v4f t2 = __builtin_shufflevector(r[2], r[3], 0, 4, 1, 5), t3 = __builtin_shufflevector(r[2], r[3], 2, 6, 3, 7);
+    r[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5), r[1] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+    r[2] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5), r[3] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+}
+
+/* Basis functions g..g+m-1 (m a literal, 1..4; g even) of four pixels whose points are p[0..3],
+ * added to the even and odd sums in the order code_dot adds them. */
+static inline void code_group4(wdr_v4f acc[2], const float *const *c, int i, const float *const p[4], const int g,
+                               const int m)
+{
+    wdr_v4f r[4] = {v4_load(p[0] + g, m), v4_load(p[1] + g, m), v4_load(p[2] + g, m), v4_load(p[3] + g, m)};
+    v4_transpose(r);
+    for (int k = 0; k < m; k++)
+        acc[k & 1] += v4_load(c[g + k] + i, 4) * r[k];
+}
+
+/* code_dot for pixels i..i+3, four lanes at once; n <= 8 is two groups at most, written out so
+ * every load has a literal size. */
+static inline wdr_v4f code_dot4(const float *const *c, int i, const float *const p[4], const int n)
+{
+    wdr_v4f acc[2] = {{0.0f, 0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f, 0.0f}};
+    code_group4(acc, c, i, p, 0, n < 4 ? n : 4);
+    if (n > 4)
+        code_group4(acc, c, i, p, 4, n - 4);
+    return acc[0] + acc[1];
+}
+
+/* to_output and the rounding of four lanes; the masks map NaN to 0 as the comparisons do. */
+static inline void v4_store_u16(wdr_v4f v, float s, float m, uint16_t *out)
+{
+    const wdr_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f}, top = {m, m, m, m}, half = {0.5f, 0.5f, 0.5f, 0.5f};
+    v *= (wdr_v4f){s, s, s, s};
+    v = (wdr_v4f)((wdr_v4i)v & (v > zero));
+    wdr_v4i below = v < top;
+    v = (wdr_v4f)(((wdr_v4i)v & below) | ((wdr_v4i)top & ~below));
+    wdr_v4u16 q = __builtin_convertvector(__builtin_convertvector(v + half, wdr_v4i), wdr_v4u16);
+    memcpy(out, &q, sizeof q);
+}
+
+/* Pixels from 0 in blocks of four; returns where the plain loop takes over. Everything read in
+ * the loop is a local: a store to out (uint16_t) could otherwise alias the view's fields. */
+static inline int codes_u16_v4(const float *const *c, const float *points, uint32_t top, float s, float m, int w,
+                               const uint16_t *raw, uint16_t *out, const int n)
+{
+    int i = 0;
+    for (; i + 4 <= w; i += 4) {
+        const float *p[4] = {code_point(points, top, raw[i], n), code_point(points, top, raw[i + 1], n),
+                             code_point(points, top, raw[i + 2], n), code_point(points, top, raw[i + 3], n)};
+        v4_store_u16(code_dot4(c, i, p, n), s, m, out + i);
+    }
+    return i;
+}
+#endif
+
+static inline void codes_u16_n(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out, const int n)
+{
+    const float *c[WDR_CAL_MAX_COEFFS];
+    for (int k = 0; k < n; k++)
+        c[k] = wdr_cal_row_coeffs(cal, row, k);
+    const float s = cal->h.out_scale, m = (float)cal->h.out_max, *points = cal->shared;
+    const uint32_t top = cal->h.shared_points - 1u;
+    const int w = cal->h.width;
+    int i = 0;
+#ifdef WDR_CORRECT_V4
+    i = codes_u16_v4(c, points, top, s, m, w, raw, out, n);
+#endif
+    for (; i < w; i++)
+        out[i] = (uint16_t)(to_output(code_dot(c, i, code_point(points, top, raw[i], n), n), s, m) + 0.5f);
+}
+
+static void codes_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
+{
+    switch (cal->h.n_coeffs) {
+    case 2: codes_u16_n(cal, row, raw, out, 2); break;
+    case 3: codes_u16_n(cal, row, raw, out, 3); break;
+    case 4: codes_u16_n(cal, row, raw, out, 4); break;
+    case 5: codes_u16_n(cal, row, raw, out, 5); break;
+    case 6: codes_u16_n(cal, row, raw, out, 6); break;
+    case 7: codes_u16_n(cal, row, raw, out, 7); break;
+    default: codes_u16_n(cal, row, raw, out, 8); break;
+    }
+}
+
+/* B_k at every raw code, interpolated once here instead of once per pixel; float only, as the
+ * kernel would have computed it. */
+int wdr_correct_per_code(wdr_cal_view *cal, float *points, size_t capacity)
+{
+    if (!cal || !points || cal->h.form != WDR_FORM_BASIS || !cal->shared || cal->h.shared_points < 2 ||
+        !wdr_cal_form_coeffs_ok(cal->h.form, cal->h.n_coeffs) || cal->h.raw_max == 0)
+        return WDR_E_INVAL;
+    const int n = cal->h.n_coeffs;
+    const uint32_t codes = (uint32_t)cal->h.raw_max + 1u;
+    if ((size_t)codes * (size_t)n > capacity)
+        return WDR_E_TOO_LARGE;
+    const float a = cal->h.in_scale, b = cal->h.in_offset, last = (float)(cal->h.shared_points - 1u);
+    for (uint32_t y = 0; y < codes; y++) {
+        float f;
+        const float *p0 = cal->shared + (size_t)basis_point((float)y, a, b, last, &f) * (size_t)n, *p1 = p0 + n;
+        for (int k = 0; k < n; k++)
+            points[(size_t)y * (size_t)n + (size_t)k] = p0[k] + f * (p1[k] - p0[k]);
+    }
+    cal->shared = points;
+    cal->h.shared_points = codes;
+    cal->h.in_scale = 1.0f;
+    cal->h.in_offset = 0.0f;
+    return WDR_OK;
+}
+
 static void basis_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
 {
+    if (points_are_codes(cal)) {
+        codes_u16(cal, row, raw, out);
+        return;
+    }
     switch (cal->h.n_coeffs) {
     case 2: basis_u16_n(cal, row, raw, out, 2); break;
     case 3: basis_u16_n(cal, row, raw, out, 3); break;

@@ -3,6 +3,7 @@
 #ifndef WDR_CORRECT_H
 #define WDR_CORRECT_H
 #include "wdr_cal.h"
+#include <stddef.h>
 #include <stdint.h>
 
 /* Correct one row of raw ADC codes into output codes (width values each). Flagged pixels are
@@ -15,5 +16,19 @@ int wdr_correct_row(const wdr_cal_view *cal, int row, const uint16_t *raw, uint1
 /* The same correction on unquantised codes (simulator studies, host reports, torture tests):
  * out gets v * out_scale without rounding, clamped to [0, out_max]; non-finite input gives 0. */
 int wdr_correct_row_f32(const wdr_cal_view *cal, int row, const float *raw, float *out);
+
+/* Make a BASIS view fast for wdr_correct_row: a code's position t(y), its point and its fraction
+ * are the same for every pixel, so tabulate sum-ready basis values once per table instead of
+ * interpolating them per pixel. points[y * n + k] = B_k(t(y)) for every code y in 0..raw_max
+ * (capacity floats, at least (raw_max + 1) * n_coeffs); the view then describes the same map
+ * as a BASIS table with one point per code (shared = points, shared_points = raw_max + 1,
+ * in_scale 1, in_offset 0), and wdr_correct_row does one dot product per pixel. Results change
+ * by float rounding only; codes above raw_max (no ADC of the table gives them) get raw_max's
+ * value instead of the last shared point's. Call again whenever the shared block or the mapping changes; points
+ * must outlive the view. wdr_correct_row_f32 on such a view interpolates between codes.
+ * @retval WDR_OK
+ * @retval WDR_E_INVAL      not a BASIS view with its shared block, or raw_max of 0
+ * @retval WDR_E_TOO_LARGE  capacity below (raw_max + 1) * n_coeffs; the view is left unchanged */
+int wdr_correct_per_code(wdr_cal_view *cal, float *points, size_t capacity);
 
 #endif

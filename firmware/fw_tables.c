@@ -1,11 +1,18 @@
 /* Table contents: the checks a stored LUT or calibration table must pass beyond its slot's
  * CRC (its own format, its kind, this board's geometry), activation, and the per-row
  * correction that READOUT runs on every frame. */
+#include "correct.h"
 #include "crc32.h"
 #include "wdr_fw.h"
 #include <string.h>
 
 #define CAL_MIN_DENOM 1e-3f /* the Moebius denominator r*y + 1 must stay this far from zero */
+
+/* The active BASIS table's basis values at every raw code (wdr_correct_per_code), built at
+ * activation so READOUT does one dot product per pixel instead of locating and interpolating
+ * every pixel's code in the shared block. Outside wdr_fw because wdr_fw.h fixes its layout; a
+ * program has one firmware (wdr_fw.h), so one table. A wider ADC than it holds interpolates. */
+static float cal_code_points[WDR_FW_CAL_CODES * WDR_FW_MAX_CAL_COEFFS];
 
 static uint32_t data_addr(const wdr_fw *fw, int kind, int slot)
 {
@@ -184,8 +191,11 @@ void wdr_fw_table_activate(wdr_fw *fw, int kind, int slot)
     } else {
         fw->cal = fw->staged_cal;
         fw->cal_slot = slot;
-        if (fw->cal.shared)
+        if (fw->cal.shared) {
             fw->cal_shared_buf ^= 1; /* the staging buffer the check filled is now the active one */
+            /* TOO_LARGE (more codes than WDR_FW_CAL_CODES) leaves the view interpolating */
+            (void)wdr_correct_per_code(&fw->cal, cal_code_points, sizeof cal_code_points / sizeof cal_code_points[0]);
+        }
     }
 }
 
@@ -226,13 +236,15 @@ void wdr_fw_tables_boot(wdr_fw *fw)
 /* ---- The on-the-fly path ----------------------------------------------------------------------- */
 
 /* Bring row `row` of the active calibration table from flash into fw->cal_row; nothing to do
- * for the identity. READOUT runs wdr_readout_row on it for every row of every frame. */
+ * for the identity. READOUT runs wdr_readout_row on it for every row of every frame. The rows
+ * end the stored table (its length was checked to be exact), so they are counted back from
+ * there: fw->cal's shared_points may describe the per-code points, not the stored block. */
 int wdr_fw_load_cal_row(wdr_fw *fw, uint16_t row)
 {
     if (fw->cal_slot < 0)
         return WDR_OK;
     const wdr_cal_view *v = &fw->cal;
-    uint32_t addr = data_addr(fw, WDR_KIND_CAL, fw->cal_slot) + WDR_CAL_HEADER_SIZE + wdr_cal_shared_bytes(&v->h) +
-                    (uint32_t)row * v->row_stride;
+    uint32_t end = data_addr(fw, WDR_KIND_CAL, fw->cal_slot) + fw->store.slot[WDR_KIND_CAL - 1][fw->cal_slot].length;
+    uint32_t addr = end - (uint32_t)(v->h.height - row) * v->row_stride;
     return hal_flash_read(addr, fw->cal_row, v->row_stride);
 }

@@ -25,6 +25,10 @@
 #ifndef WDR_FW_CAL_SHARED_MAX_FLOATS
 #define WDR_FW_CAL_SHARED_MAX_FLOATS WDR_CAL_MAX_SHARED_FLOATS /* a BASIS table's shared block, in RAM */
 #endif
+#ifndef WDR_FW_CAL_CODES
+#define WDR_FW_CAL_CODES 4096u       /* raw codes of a BASIS table's per-code points (12-bit ADC):
+                                        4 * WDR_FW_MAX_CAL_COEFFS bytes each, in RAM */
+#endif
 #ifndef WDR_FW_TX_SLOTS
 #define WDR_FW_TX_SLOTS 3u           /* outgoing frames: one in flight, the rest being filled */
 #endif
@@ -53,6 +57,9 @@
 #endif
 #if WDR_FW_CAL_SHARED_MAX_FLOATS > WDR_CAL_MAX_SHARED_FLOATS
 #error "WDR_FW_CAL_SHARED_MAX_FLOATS exceeds what a calibration table can hold"
+#endif
+#if WDR_FW_CAL_CODES < 2
+#error "WDR_FW_CAL_CODES: the per-code points need at least two codes"
 #endif
 #if WDR_FW_TX_SLOTS < 2 || WDR_FW_TX_SLOTS > 255
 #error "WDR_FW_TX_SLOTS: READOUT needs one frame in flight and one being filled"

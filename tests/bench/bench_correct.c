@@ -23,20 +23,37 @@ static double now_s(void)
 typedef struct form_row {
     const char *name;
     int model, form, n_coeffs;
+    int per_code; /* BASIS: tabulated per raw code by wdr_correct_per_code, as the firmware does */
 } form_row;
 
 static const form_row forms[] = {
-    {"identity (no table)", WDR_MODEL_NONE, WDR_FORM_IDENTITY, 0},
-    {"poly-2 gain/offset (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 2},
-    {"Moebius, 1 divide (3-parameter)", WDR_MODEL_SIMPLE3, WDR_FORM_MOEBIUS, 3},
-    {"poly-3 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 3},
-    {"poly-4 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 4},
-    {"poly-5 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 5},
-    {"poly-5 (4-parameter fit)", WDR_MODEL_COMPLEX4, WDR_FORM_POLY, 5},
-    {"poly-8 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 8},
-    {"basis-4, shared 16 KiB (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_BASIS, 4},
-    {"basis-8, shared 16 KiB (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_BASIS, 8},
+    {"identity (no table)", WDR_MODEL_NONE, WDR_FORM_IDENTITY, 0, 0},
+    {"poly-2 gain/offset (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 2, 0},
+    {"Moebius, 1 divide (3-parameter)", WDR_MODEL_SIMPLE3, WDR_FORM_MOEBIUS, 3, 0},
+    {"poly-3 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 3, 0},
+    {"poly-4 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 4, 0},
+    {"poly-5 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 5, 0},
+    {"poly-5 (4-parameter fit)", WDR_MODEL_COMPLEX4, WDR_FORM_POLY, 5, 0},
+    {"poly-8 (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_POLY, 8, 0},
+    {"basis-4, shared 16 KiB (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_BASIS, 4, 0},
+    {"basis-8, shared 16 KiB (spline fit)", WDR_MODEL_SPLINE, WDR_FORM_BASIS, 8, 0},
+    {"basis-4, per code 64 KiB (firmware)", WDR_MODEL_SPLINE, WDR_FORM_BASIS, 4, 1},
+    {"basis-8, per code 128 KiB (firmware)", WDR_MODEL_SPLINE, WDR_FORM_BASIS, 8, 1},
 };
+
+/* The firmware's per-code points (wdr_fw_config.h: 4096 codes of 8 coefficients). */
+static float code_points[4096 * 8];
+
+/* As the firmware activates a BASIS table: one point per raw code. */
+static int per_code(const form_row *f, wdr_cal_view *v)
+{
+    if (!f->per_code)
+        return WDR_OK;
+    int rc = wdr_correct_per_code(v, code_points, sizeof code_points / sizeof code_points[0]);
+    if (rc)
+        fprintf(stderr, "bench_correct: %s: per-code points refused: %s\n", f->name, wdr_strerror(rc));
+    return rc;
+}
 
 /* ---- accuracy: calibrate a 64x48 chip and judge the table path ---- */
 
@@ -86,7 +103,8 @@ static double form_error(chip *c, const form_row *f)
     cfg.range_lo = 1e-14, cfg.range_hi = 1e-8;
     if (wdr_cal_select_currents(&c->grid, &cfg, n_cur, 1e-14, 1e-8, 64, &ch, err, sizeof err) ||
         wdr_cal_levels_from_choice(&c->grid, &ch, &lv) || wdr_cal_fit_array(&lv, &cfg, &res, err, sizeof err) ||
-        wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err) || wdr_cal_parse(tb, tl, &tab)) {
+        wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err) || wdr_cal_parse(tb, tl, &tab) ||
+        per_code(f, &tab)) {
         fprintf(stderr, "bench_correct: %s: %s\n", f->name, err);
         return NAN;
     }
@@ -210,6 +228,8 @@ int main(int argc, char **argv)
                 fprintf(stderr, "bench_correct: synthetic %s table refused: %s\n", forms[f].name, wdr_strerror(rc));
                 return 1;
             }
+            if (per_code(&forms[f], &v))
+                return 1;
         }
         size_t streamed = (size_t)np * 4 + (len ? len - WDR_CAL_HEADER_SIZE : 0);
         double t_k = time_kernel(&v, raw, out, reps), t_same = time_memcpy(dst, src, streamed, reps);
