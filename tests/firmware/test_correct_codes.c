@@ -1,8 +1,9 @@
 /* The BASIS kernel with one point per raw code (wdr_correct_per_code), as the firmware activates
  * it: its points are the shared block interpolated at each code, every pixel is exactly the
  * documented dot product (even k, then odd k, summed), and the frame matches the interpolating
- * kernel within the output rounding, flagged pixels and codes above raw_max included. Built
- * twice: with the host's four-lane loop, and with WDR_CORRECT_SCALAR (the Cortex-M7's loop). */
+ * kernel within the output rounding, flagged pixels and codes above raw_max included; the
+ * interpolating kernel is exactly its own documented formula too. Built twice: with the host's
+ * four-lane loops, and with WDR_CORRECT_SCALAR (the Cortex-M7's loops), so both agree to the bit. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -88,24 +89,49 @@ static void points_are_interpolated_basis(const table *t, const wdr_cal_view *pc
             assert_true(fabs(pc->shared[y * (uint32_t)n + (uint32_t)k] - basis_at(t, n, k, y)) < 1e-5);
 }
 
-/* The pixel exactly as documented in correct.c: even k, odd k, their sum, scaled, clamped,
- * rounded; the same float operations, so equality is exact. */
-static uint16_t dot_pixel(const wdr_cal_view *pc, int row, int i, uint16_t y)
+/* sum_k c_k p_k as correct.c adds it: even k, odd k, then their sum. */
+static float dot(const wdr_cal_view *v, int row, int i, const float *p)
 {
-    const int n = pc->h.n_coeffs;
-    const float *p = pc->shared + (y < RAW_MAX ? y : RAW_MAX) * (uint32_t)n;
     float even = 0.0f, odd = 0.0f;
-    for (int k = 0; k < n; k++) {
-        float term = wdr_cal_row_coeffs(pc, row, k)[i] * p[k];
+    for (int k = 0; k < v->h.n_coeffs; k++) {
+        float term = wdr_cal_row_coeffs(v, row, k)[i] * p[k];
         if (k & 1)
             odd += term;
         else
             even += term;
     }
-    float v = (even + odd) * pc->h.out_scale;
-    v = v > 0.0f ? v : 0.0f;
-    v = v < (float)pc->h.out_max ? v : (float)pc->h.out_max;
-    return (uint16_t)(v + 0.5f);
+    return even + odd;
+}
+
+static uint16_t to_code(const wdr_cal_view *v, float x)
+{
+    x *= v->h.out_scale;
+    x = x > 0.0f ? x : 0.0f;
+    x = x < (float)v->h.out_max ? x : (float)v->h.out_max;
+    return (uint16_t)(x + 0.5f);
+}
+
+/* The per-code kernel's pixel: the code's point (codes above raw_max take raw_max's); the same
+ * float operations as correct.c, so equality is exact. */
+static uint16_t dot_pixel(const wdr_cal_view *pc, int row, int i, uint16_t y)
+{
+    return to_code(pc, dot(pc, row, i, pc->shared + (y < RAW_MAX ? y : RAW_MAX) * (uint32_t)pc->h.n_coeffs));
+}
+
+/* The interpolating kernel's pixel (wdr_cal.h): t clamped to [0, K-1], the sums at the two
+ * points around it, then the interpolation; the same float operations as correct.c. */
+static uint16_t interp_pixel(const wdr_cal_view *v, int row, int i, uint16_t y)
+{
+    const float last = (float)(v->h.shared_points - 1u);
+    float t = (float)y * v->h.in_scale + v->h.in_offset;
+    t = t > 0.0f ? t : 0.0f;
+    t = t < last ? t : last;
+    int j = (int)t;
+    j = j < (int)last ? j : (int)last - 1;
+    float f = t - (float)j;
+    const float *p0 = v->shared + j * v->h.n_coeffs;
+    float a = dot(v, row, i, p0), b = dot(v, row, i, p0 + v->h.n_coeffs);
+    return to_code(v, a + f * (b - a));
 }
 
 static void per_code_matches_the_interpolating_kernel(void **state)
@@ -128,8 +154,10 @@ static void per_code_matches_the_interpolating_kernel(void **state)
             assert_int_equal(wdr_correct_row(&pc, r, raw, fast), WDR_OK);
             const uint8_t *fl = wdr_cal_row_flags(&pc, r);
             for (int i = 0; i < W; i++) {
-                if (!fl[i])
+                if (!fl[i]) {
                     assert_int_equal(fast[i], dot_pixel(&pc, r, i, raw[i]));
+                    assert_int_equal(slow[i], interp_pixel(&t.v, r, i, clamped[i]));
+                }
                 assert_true(abs((int)fast[i] - (int)slow[i]) <= 1); /* float rounding, then to a code */
                 differ += fast[i] != slow[i];
             }
