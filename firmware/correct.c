@@ -117,15 +117,21 @@ static inline wdr_v4f code_dot4(const float *const *c, int i, const float *const
     return acc[0] + acc[1];
 }
 
-/* to_output and the rounding of four lanes; the masks map NaN to 0 as the comparisons do. */
-static inline void v4_store_u16(wdr_v4f v, float s, float m, uint16_t *out)
+/* to_output of four lanes; the masks map NaN to 0 as the comparisons do. */
+static inline wdr_v4f v4_output(wdr_v4f v, float s, float m)
 {
-    const wdr_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f}, top = {m, m, m, m}, half = {0.5f, 0.5f, 0.5f, 0.5f};
+    const wdr_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f}, top = {m, m, m, m};
     v *= (wdr_v4f){s, s, s, s};
     v = (wdr_v4f)((wdr_v4i)v & (v > zero));
     wdr_v4i below = v < top;
-    v = (wdr_v4f)(((wdr_v4i)v & below) | ((wdr_v4i)top & ~below));
-    wdr_v4u16 q = __builtin_convertvector(__builtin_convertvector(v + half, wdr_v4i), wdr_v4u16);
+    return (wdr_v4f)(((wdr_v4i)v & below) | ((wdr_v4i)top & ~below));
+}
+
+/* to_output and the rounding of four lanes. */
+static inline void v4_store_u16(wdr_v4f v, float s, float m, uint16_t *out)
+{
+    const wdr_v4f half = {0.5f, 0.5f, 0.5f, 0.5f};
+    wdr_v4u16 q = __builtin_convertvector(__builtin_convertvector(v4_output(v, s, m) + half, wdr_v4i), wdr_v4u16);
     memcpy(out, &q, sizeof q);
 }
 #endif
@@ -193,12 +199,11 @@ static void poly_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint
 /* basis_point for four codes: the same float operations lane by lane, so the same points and
  * fractions; computed in lanes because four scalar fractions stored and reloaded as one vector
  * stall the load. */
-static inline wdr_v4f basis_point4(const uint16_t *raw, float a, float b, float last, wdr_v4i *j)
+static inline wdr_v4f basis_point4(wdr_v4f y, float a, float b, float last, wdr_v4i *j)
 {
     const wdr_v4f zero = {0.0f, 0.0f, 0.0f, 0.0f}, top = {last, last, last, last};
     const wdr_v4i below_top = {(int)last - 1, (int)last - 1, (int)last - 1, (int)last - 1};
-    wdr_v4f t = __builtin_convertvector(((wdr_v4i){raw[0], raw[1], raw[2], raw[3]}), wdr_v4f);
-    t = t * (wdr_v4f){a, a, a, a} + (wdr_v4f){b, b, b, b};
+    wdr_v4f t = y * (wdr_v4f){a, a, a, a} + (wdr_v4f){b, b, b, b};
     t = (wdr_v4f)((wdr_v4i)t & (t > zero));
     wdr_v4i in = t < top;
     t = (wdr_v4f)(((wdr_v4i)t & in) | ((wdr_v4i)top & ~in));
@@ -207,19 +212,38 @@ static inline wdr_v4f basis_point4(const uint16_t *raw, float a, float b, float 
     return t - __builtin_convertvector(*j, wdr_v4f);
 }
 
-/* basis_sum for four pixels at a time: both points' sums by code_dot4 (the order basis_sum
+/* basis_sum for four pixels at codes y: both points' sums by code_dot4 (the order basis_sum
  * adds in), then the same interpolation per lane, so the results are basis_sum's to the bit. */
+static inline wdr_v4f basis_sum4(const float *const *c, int i, const float *shared, wdr_v4f y, float a, float b,
+                                 float last, const int n)
+{
+    wdr_v4i j;
+    wdr_v4f f = basis_point4(y, a, b, last, &j);
+    const float *p0[4] = {shared + j[0] * n, shared + j[1] * n, shared + j[2] * n, shared + j[3] * n};
+    const float *p1[4] = {p0[0] + n, p0[1] + n, p0[2] + n, p0[3] + n};
+    wdr_v4f at0 = code_dot4(c, i, p0, n), at1 = code_dot4(c, i, p1, n);
+    return at0 + f * (at1 - at0);
+}
+
+/* Pixels from 0 in blocks of four; returns where the plain loop takes over. */
 static inline int basis_u16_v4(const float *const *c, const float *shared, float a, float b, float last, float s,
                                float m, int w, const uint16_t *raw, uint16_t *out, const int n)
 {
     int i = 0;
     for (; i + 4 <= w; i += 4) {
-        wdr_v4i j;
-        wdr_v4f f = basis_point4(raw + i, a, b, last, &j);
-        const float *p0[4] = {shared + j[0] * n, shared + j[1] * n, shared + j[2] * n, shared + j[3] * n};
-        const float *p1[4] = {p0[0] + n, p0[1] + n, p0[2] + n, p0[3] + n};
-        wdr_v4f at0 = code_dot4(c, i, p0, n), at1 = code_dot4(c, i, p1, n);
-        v4_store_u16(at0 + f * (at1 - at0), s, m, out + i);
+        wdr_v4f y = __builtin_convertvector(((wdr_v4i){raw[i], raw[i + 1], raw[i + 2], raw[i + 3]}), wdr_v4f);
+        v4_store_u16(basis_sum4(c, i, shared, y, a, b, last, n), s, m, out + i);
+    }
+    return i;
+}
+
+static inline int basis_f32_v4(const float *const *c, const float *shared, float a, float b, float last, float s,
+                               float m, int w, const float *raw, float *out, const int n)
+{
+    int i = 0;
+    for (; i + 4 <= w; i += 4) {
+        wdr_v4f v = v4_output(basis_sum4(c, i, shared, v4_load(raw + i, 4), a, b, last, n), s, m);
+        memcpy(out + i, &v, sizeof v);
     }
     return i;
 }
@@ -363,19 +387,37 @@ static void basis_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uin
     }
 }
 
-static void basis_f32(const wdr_cal_view *cal, int row, const float *raw, float *out)
+static inline void basis_f32_n(const wdr_cal_view *cal, int row, const float *raw, float *out, const int n)
 {
-    const int n = cal->h.n_coeffs;
     const float *c[WDR_CAL_MAX_COEFFS];
     for (int k = 0; k < n; k++)
         c[k] = wdr_cal_row_coeffs(cal, row, k);
     const float s = cal->h.out_scale, m = (float)cal->h.out_max, a = cal->h.in_scale, b = cal->h.in_offset;
     const float last = (float)(cal->h.shared_points - 1u);
+    const float *shared = cal->shared;
     const int w = cal->h.width;
-    for (int i = 0; i < w; i++) {
+    int i = 0;
+#ifdef WDR_CORRECT_V4
+    i = basis_f32_v4(c, shared, a, b, last, s, m, w, raw, out, n);
+#endif
+    for (; i < w; i++) {
         float f;
         int j = basis_point(raw[i], a, b, last, &f);
-        out[i] = to_output(basis_sum(c, i, cal->shared, j, f, n), s, m);
+        out[i] = to_output(basis_sum(c, i, shared, j, f, n), s, m);
+    }
+}
+
+/* n a literal in each copy, as for basis_u16: the host's studies run this on whole frames. */
+static void basis_f32(const wdr_cal_view *cal, int row, const float *raw, float *out)
+{
+    switch (cal->h.n_coeffs) {
+    case 2: basis_f32_n(cal, row, raw, out, 2); break;
+    case 3: basis_f32_n(cal, row, raw, out, 3); break;
+    case 4: basis_f32_n(cal, row, raw, out, 4); break;
+    case 5: basis_f32_n(cal, row, raw, out, 5); break;
+    case 6: basis_f32_n(cal, row, raw, out, 6); break;
+    case 7: basis_f32_n(cal, row, raw, out, 7); break;
+    default: basis_f32_n(cal, row, raw, out, 8); break;
     }
 }
 

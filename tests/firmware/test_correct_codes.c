@@ -134,6 +134,44 @@ static uint16_t interp_pixel(const wdr_cal_view *v, int row, int i, uint16_t y)
     return to_code(v, a + f * (b - a));
 }
 
+/* wdr_correct_row_f32's pixel (unflagged): the same formula without the rounding to a code. */
+static float interp_value(const wdr_cal_view *v, int row, int i, float y)
+{
+    const float last = (float)(v->h.shared_points - 1u);
+    float t = y * v->h.in_scale + v->h.in_offset;
+    t = t > 0.0f ? t : 0.0f; /* NaN goes to 0 here */
+    t = t < last ? t : last;
+    int j = (int)t;
+    j = j < (int)last ? j : (int)last - 1;
+    float f = t - (float)j;
+    const float *p0 = v->shared + j * v->h.n_coeffs;
+    float a = dot(v, row, i, p0), b = dot(v, row, i, p0 + v->h.n_coeffs), x = (a + f * (b - a)) * v->h.out_scale;
+    x = x > 0.0f ? x : 0.0f;
+    return x < (float)v->h.out_max ? x : (float)v->h.out_max;
+}
+
+/* Unquantised codes (host studies): fractions, negatives, NaN and Inf; every n, exact. */
+static void f32_kernel_is_its_formula(void **state)
+{
+    (void)state;
+    static float raw[W], out[W];
+    for (int n = 2; n <= (int)WDR_CAL_MAX_COEFFS; n++) {
+        static table t;
+        make_basis(&t, n);
+        for (int r = 0; r < H; r++) {
+            for (int i = 0; i < W; i++)
+                raw[i] = (float)((i * 4 + r) % (CODES + 8u)) + 0.37f * (float)(i % 3);
+            raw[5] = -3.0f, raw[9] = NAN, raw[10] = INFINITY, raw[11] = -INFINITY;
+            assert_int_equal(wdr_correct_row_f32(&t.v, r, raw, out), WDR_OK);
+            const uint8_t *fl = wdr_cal_row_flags(&t.v, r);
+            for (int i = 0; i < W; i++)
+                if (!fl[i])
+                    assert_true(out[i] == interp_value(&t.v, r, i, raw[i]));
+        }
+        free(t.buf);
+    }
+}
+
 static void per_code_matches_the_interpolating_kernel(void **state)
 {
     (void)state;
@@ -221,6 +259,7 @@ int main(void)
         cmocka_unit_test(per_code_matches_the_interpolating_kernel),
         cmocka_unit_test(per_code_patches_flagged_pixels),
         cmocka_unit_test(per_code_refusals_leave_the_view),
+        cmocka_unit_test(f32_kernel_is_its_formula),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
