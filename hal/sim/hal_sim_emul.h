@@ -23,7 +23,7 @@ typedef struct hal_sim_config {
 } hal_sim_config;
 
 #define HAL_SIM_FLASH_BLOCK_SIZE 4096u
-#define HAL_SIM_FLASH_BLOCK_COUNT 4096u /* 16 MiB: A/B slots of a VGA calibration table */
+#define HAL_SIM_FLASH_BLOCK_COUNT 8192u /* 32 MiB: A/B slots of a VGA basis-8 calibration table (9.8 MB) */
 #define HAL_SIM_FLASH_PROG_SIZE 128u /* the firmware's slot format needs <= 128 */
 
 /* Build the board: sensor chip, flash, socket. Call before hal_init; again only after

@@ -1,0 +1,27 @@
+#!/bin/sh
+# The README's main job on the default board, as the demo runs it, without plots:
+# board up, LUT upload, calibration of the full VGA array with upload, corrected capture,
+# side-by-side. Fails on the first step that fails.
+# usage: main_job.sh WDRCTL WDR_SIMBOARD SOURCE_DIR
+set -eu
+wdrctl=$1 simboard=$2 src=$3
+dir=$(mktemp -d)
+trap 'kill $pid 2>/dev/null || true; rm -rf "$dir"' EXIT
+"$simboard" --board "$src/boards/sim-vga/board.json" --scene "$src/sim/scenes/window.json" \
+    --socket "$dir/b.sock" --flash "$dir/flash.bin" &
+pid=$!
+export WDR_DEVICE="sim:$dir/b.sock"
+"$wdrctl" info --wait 10000 >/dev/null
+"$wdrctl" lut build --operator reinhard -o "$dir/r.lut"
+"$wdrctl" lut upload "$dir/r.lut"
+"$wdrctl" calibrate --lut "$dir/r.lut" --upload -o "$dir/cal.bin" --frames 1
+kill $pid; wait $pid 2>/dev/null || true
+"$simboard" --board "$src/boards/sim-vga/board.json" --scene "$src/sim/scenes/window.json" \
+    --socket "$dir/b.sock" --flash "$dir/flash.bin" &
+pid=$!
+"$wdrctl" info --wait 10000 >/dev/null
+"$wdrctl" status | grep -i "cal" 
+"$wdrctl" capture -o "$dir/cap.pfm"
+"$wdrctl" tonemap --board "$src/boards/sim-vga/board.json" --scene "$src/sim/scenes/window.json" \
+    -o "$dir/soft.png" --capture "$dir/cap.pfm" --side-by-side "$dir/sbs.png"
+echo "main job: ok"
