@@ -261,25 +261,11 @@ static double decide_auto(wdr_sim *s, const double est[], sim_plan *plan)
 
 /* ---- per-band decisions for dark current, shot and kTC noise ---- */
 
-static float bits_to_float(uint32_t u)
-{
-    float f;
-    memcpy(&f, &u, sizeof f);
-    return f;
-}
-
-static uint32_t float_to_bits(float f)
-{
-    uint32_t u;
-    memcpy(&u, &f, sizeof u);
-    return u;
-}
-
 static void make_bands(const wdr_sim *s, sim_plan *plan)
 {
     double lo = fmax(s->scene_i_min, 1e-18), hi = fmax(s->scene_i_max, lo);
-    plan->band_base = float_to_bits((float)lo) >> SIM_BAND_SHIFT;
-    uint32_t top = float_to_bits((float)hi) >> SIM_BAND_SHIFT;
+    plan->band_base = sim_float_bits((float)lo) >> SIM_BAND_SHIFT;
+    uint32_t top = sim_float_bits((float)hi) >> SIM_BAND_SHIFT;
     plan->n_bands = (int)(top - plan->band_base + 1);
     if (plan->n_bands > SIM_MAX_BANDS)
         plan->n_bands = SIM_MAX_BANDS; /* the last band then also holds everything above it */
@@ -289,9 +275,9 @@ static void make_bands(const wdr_sim *s, sim_plan *plan)
  * holds the unlit pixels, the last everything above its lower edge. */
 static void band_probes(const wdr_sim *s, const sim_plan *plan, int b, probe_set *ps)
 {
-    double lo = bits_to_float((plan->band_base + (uint32_t)b) << SIM_BAND_SHIFT);
+    double lo = sim_bits_float((plan->band_base + (uint32_t)b) << SIM_BAND_SHIFT);
     double hi = b == plan->n_bands - 1 ? s->scene_i_max
-                                       : bits_to_float((plan->band_base + (uint32_t)b + 1) << SIM_BAND_SHIFT);
+                                       : sim_bits_float((plan->band_base + (uint32_t)b + 1) << SIM_BAND_SHIFT);
     lo = fmax(lo, s->scene_i_min);
     hi = fmax(fmin(hi, s->scene_i_max), lo);
     ps->n = 0;
@@ -361,8 +347,8 @@ static void report_banded(wdr_sim *s, const sim_plan *plan, int k, const band_su
     r->requested = WDR_FX_AUTO;
     r->ran = bs->runs > 0;
     r->estimate_lsb = bs->worst;
-    double lo = bits_to_float((plan->band_base + (uint32_t)bs->first) << SIM_BAND_SHIFT);
-    double hi = bits_to_float((plan->band_base + (uint32_t)bs->last + 1) << SIM_BAND_SHIFT);
+    double lo = sim_bits_float((plan->band_base + (uint32_t)bs->first) << SIM_BAND_SHIFT);
+    double hi = sim_bits_float((plan->band_base + (uint32_t)bs->last + 1) << SIM_BAND_SHIFT);
     if (s->reference && is_noise(banded_fx[k]))
         snprintf(r->why, sizeof r->why, "auto: skipped, the scene is a noiseless reference frame");
     else if (!bs->runs)

@@ -149,4 +149,19 @@ void sim_plan_effects(wdr_sim *s, sim_plan *plan);
 /* sim_chip.c: reset charge change (nominal units) for an M1 threshold offset */
 double sim_reset_dq0(const wdr_sim *s, double dvt1);
 
+/* The bits of a float and back: the current-to-step guess table is indexed by them. */
+static inline uint32_t sim_float_bits(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+static inline float sim_bits_float(uint32_t u)
+{
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
 #endif

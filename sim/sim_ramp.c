@@ -11,20 +11,6 @@
 #define CONTINUOUS_MAX_NODES 60000
 #define GUESS_MAX_BUCKETS (1 << 18)
 
-static uint32_t float_bits(float f)
-{
-    uint32_t u;
-    memcpy(&u, &f, sizeof u);
-    return u;
-}
-
-static float bits_float(uint32_t u)
-{
-    float f;
-    memcpy(&f, &u, sizeof f);
-    return f;
-}
-
 /* C(V) of the nominal junction, the derivative of wdr_pixel_charge. */
 static double nominal_cap(const wdr_pixel_dev *d, double v)
 {
@@ -89,8 +75,8 @@ static int build_guess(const wdr_sim *s, sim_ramp_table *tab)
     crossing_current_span(tab, &lo, &hi);
     lo = fmax(lo * 0.5, 1e-30);
     hi = fmin(hi * 2.0, 1e30);
-    tab->guess_base = float_bits((float)lo) >> SIM_GUESS_SHIFT;
-    uint32_t top = float_bits((float)hi) >> SIM_GUESS_SHIFT;
+    tab->guess_base = sim_float_bits((float)lo) >> SIM_GUESS_SHIFT;
+    uint32_t top = sim_float_bits((float)hi) >> SIM_GUESS_SHIFT;
     tab->n_guess = (int)(top - tab->guess_base + 1);
     if (tab->n_guess > GUESS_MAX_BUCKETS)
         tab->n_guess = GUESS_MAX_BUCKETS;
@@ -98,7 +84,7 @@ static int build_guess(const wdr_sim *s, sim_ramp_table *tab)
     if (!tab->guess)
         return WDR_E_NOMEM;
     for (int b = 0; b < tab->n_guess; b++) {
-        double edge = bits_float((tab->guess_base + (uint32_t)b) << SIM_GUESS_SHIFT);
+        double edge = sim_bits_float((tab->guess_base + (uint32_t)b) << SIM_GUESS_SHIFT);
         tab->guess[b] = first_crossed_nominal(tab, edge);
     }
     return WDR_OK;
