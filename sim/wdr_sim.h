@@ -105,12 +105,4 @@ typedef struct wdr_sim_pixel_truth {
 /* @retval WDR_OK, WDR_E_INVAL (outside the array) */
 int wdr_sim_pixel_devices(const wdr_sim *s, int x, int y, wdr_sim_pixel_truth *out);
 
-/* Build a LUT for board b from operator op_name with default parameters and the board's
- * photocurrent range and DAC timing (as `wdrctl lut build`). *bytes is malloc'd (free()).
- * ramp, if not NULL, receives the continuous ramp (wdr_ramp_free it), for wdr_sim_set_ramp.
- * @retval WDR_OK, or the operator/ramp errors (err says which) */
-struct wdr_ramp;
-int wdr_sim_build_lut(const wdr_board *b, const char *op_name, uint8_t **bytes, size_t *len,
-                      struct wdr_ramp *ramp, char *err, int errlen);
-
 #endif

@@ -37,12 +37,12 @@ static struct {
 } B;
 
 static atomic_int stop_flag;
-int sim_exit_on_disconnect;
-int sim_eof_fd = -1;
+int hal_sim_exit_on_disconnect;
+int hal_sim_eof_fd = -1;
 
 /* ---- Events and virtual time ------------------------------------------------------------ */
 
-void sim_post(uint8_t type, uint32_t arg)
+void hal_sim_post(uint8_t type, uint32_t arg)
 {
     uint32_t next = (B.evq_head + 1u) & (EVQ_SIZE - 1u);
     if (next == B.evq_tail)
@@ -66,7 +66,7 @@ static void finish_integration(void)
     B.ramp_done_at = NEVER;
     B.exposed = wdr_sim_expose(B.sensor, splitmix64(B.frame_seed ^ splitmix64(B.frames))) == WDR_OK;
     B.frames++;
-    sim_post(HAL_EV_RAMP_DONE, 0);
+    hal_sim_post(HAL_EV_RAMP_DONE, 0);
 }
 
 /* Post everything scheduled at or before now, in time order. */
@@ -77,7 +77,7 @@ static void fire_due(void)
         finish_integration();
     if (B.timer_at <= B.now_ns) {
         B.timer_at = NEVER;
-        sim_post(HAL_EV_TIMER, 0);
+        hal_sim_post(HAL_EV_TIMER, 0);
     }
     if (B.ramp_done_at <= B.now_ns)
         finish_integration();
@@ -91,7 +91,7 @@ int hal_event_poll(hal_event *ev)
 {
     fire_due();
     if (queue_empty())
-        sim_usb_pump(0);
+        hal_sim_usb_pump(0);
     if (queue_empty())
         return 0;
     *ev = B.evq[B.evq_tail];
@@ -105,14 +105,14 @@ void hal_wait_for_event(void)
 {
     while (!atomic_load(&stop_flag)) {
         fire_due();
-        sim_usb_pump(0);
+        hal_sim_usb_pump(0);
         if (!queue_empty())
             return;
-        if (!sim_usb_tx_pending() && next_scheduled() != NEVER) {
+        if (!hal_sim_usb_tx_pending() && next_scheduled() != NEVER) {
             B.now_ns = next_scheduled();
             continue;
         }
-        sim_usb_pump(IDLE_POLL_MS);
+        hal_sim_usb_pump(IDLE_POLL_MS);
         if (!queue_empty())
             return;
     }
@@ -255,9 +255,9 @@ int hal_sim_setup(const hal_sim_config *cfg, char *err, int errlen)
     memset(&B, 0, sizeof B);
     int rc = setup_sensor(cfg, err, errlen);
     if (rc == WDR_OK)
-        rc = sim_flash_setup(cfg, err, errlen);
+        rc = hal_sim_flash_setup(cfg, err, errlen);
     if (rc == WDR_OK && cfg->socket_path)
-        rc = sim_usb_setup(cfg->socket_path, err, errlen);
+        rc = hal_sim_usb_setup(cfg->socket_path, err, errlen);
     B.ready = 1;
     if (rc != WDR_OK) {
         hal_sim_teardown();
@@ -270,13 +270,13 @@ int hal_sim_setup(const hal_sim_config *cfg, char *err, int errlen)
 
 void hal_sim_teardown(void)
 {
-    sim_usb_teardown();
-    sim_flash_teardown();
+    hal_sim_usb_teardown();
+    hal_sim_flash_teardown();
     wdr_sim_destroy(B.sensor);
     free(B.adc_row);
     memset(&B, 0, sizeof B);
-    sim_exit_on_disconnect = 0;
-    sim_eof_fd = -1;
+    hal_sim_exit_on_disconnect = 0;
+    hal_sim_eof_fd = -1;
 }
 
 wdr_sim *hal_sim_sensor(void) { return B.sensor; }
@@ -289,8 +289,8 @@ void hal_sim_reboot(void)
     B.integration_end_ns = 0;
     B.exposed = B.converted = B.reset_asserted = 0;
     B.row_selected = -1;
-    sim_flash_reboot();
-    sim_usb_reboot();
+    hal_sim_flash_reboot();
+    hal_sim_usb_reboot();
 }
 
 uint64_t hal_sim_time_ns(void) { return B.now_ns; }
@@ -310,6 +310,6 @@ void hal_sim_request_stop(void)
 
 int hal_sim_stop_requested(void) { return atomic_load(&stop_flag); }
 
-void hal_sim_set_exit_on_disconnect(int on) { sim_exit_on_disconnect = on; }
+void hal_sim_set_exit_on_disconnect(int on) { hal_sim_exit_on_disconnect = on; }
 
-void hal_sim_watch_eof(int fd) { sim_eof_fd = fd; }
+void hal_sim_watch_eof(int fd) { hal_sim_eof_fd = fd; }

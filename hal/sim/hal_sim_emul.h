@@ -71,7 +71,7 @@ void hal_sim_flash_reset(void);
 /* Direct view of the flash bytes, for invariant checks. */
 const uint8_t *hal_sim_flash_bytes(size_t *size);
 
-/* ---- USB link faults (callable from another thread while hal_sim_serve runs) ------------ */
+/* ---- USB link faults (callable from another thread while the firmware is served (simboard_loop.h)) ------------ */
 
 /* Lose the next n bytes the host sends, as if their packets vanished on the bus. */
 void hal_sim_usb_drop_rx(uint32_t n);
@@ -102,10 +102,5 @@ void hal_sim_set_exit_on_disconnect(int on);
 
 /* Also end the loop when this descriptor reaches EOF (a pipe from the parent); -1: none. */
 void hal_sim_watch_eof(int fd);
-
-/* Run the firmware on this board until a stop is requested: wdr_fw_init, then wdr_fw_task
- * and hal_wait_for_event in turn. Call after hal_sim_setup and hal_init.
- * @retval WDR_OK, or the error of wdr_fw_init */
-int hal_sim_serve(void);
 
 #endif

@@ -62,7 +62,7 @@ static int load_file(const char *path, char *err, int errlen)
     return WDR_OK;
 }
 
-int sim_flash_setup(const hal_sim_config *cfg, char *err, int errlen)
+int hal_sim_flash_setup(const hal_sim_config *cfg, char *err, int errlen)
 {
     F.g.block_size = cfg->flash_block_size ? cfg->flash_block_size : HAL_SIM_FLASH_BLOCK_SIZE;
     F.g.block_count = cfg->flash_block_count ? cfg->flash_block_count : HAL_SIM_FLASH_BLOCK_COUNT;
@@ -87,7 +87,7 @@ int sim_flash_setup(const hal_sim_config *cfg, char *err, int errlen)
     return cfg->flash_path ? load_file(cfg->flash_path, err, errlen) : WDR_OK;
 }
 
-void sim_flash_teardown(void)
+void hal_sim_flash_teardown(void)
 {
     if (F.fd >= 0)
         close(F.fd);
@@ -97,7 +97,7 @@ void sim_flash_teardown(void)
     F.fd = -1;
 }
 
-void sim_flash_reboot(void) { F.power_lost = 0; }
+void hal_sim_flash_reboot(void) { F.power_lost = 0; }
 
 /* Count a mutating operation; returns the injected fault for it, or WDR_OK. */
 static int count_op(void)

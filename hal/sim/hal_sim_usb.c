@@ -41,11 +41,11 @@ static void drop_client(int post_events)
     close(U.client_fd);
     U.client_fd = -1;
     if (U.tx && post_events)
-        sim_post(HAL_EV_USB_TX_DONE, 0); /* the buffer is the firmware's again */
+        hal_sim_post(HAL_EV_USB_TX_DONE, 0); /* the buffer is the firmware's again */
     U.tx = NULL;
     if (post_events) {
-        sim_post(HAL_EV_USB_RESET, 0);
-        if (sim_exit_on_disconnect)
+        hal_sim_post(HAL_EV_USB_RESET, 0);
+        if (hal_sim_exit_on_disconnect)
             hal_sim_request_stop();
     }
 }
@@ -58,10 +58,10 @@ static void accept_client(void)
     set_nonblocking(fd);
     U.client_fd = fd;
     U.rx_armed = 1;
-    sim_post(HAL_EV_USB_RESET, 0); /* a host attached: start from a clean decoder */
+    hal_sim_post(HAL_EV_USB_RESET, 0); /* a host attached: start from a clean decoder */
 }
 
-int sim_usb_setup(const char *path, char *err, int errlen)
+int hal_sim_usb_setup(const char *path, char *err, int errlen)
 {
     struct sockaddr_un sa = {.sun_family = AF_UNIX};
     struct stat st;
@@ -85,7 +85,7 @@ int sim_usb_setup(const char *path, char *err, int errlen)
     return WDR_OK;
 }
 
-void sim_usb_teardown(void)
+void hal_sim_usb_teardown(void)
 {
     drop_client(0);
     if (U.listen_fd >= 0) {
@@ -101,9 +101,9 @@ void sim_usb_teardown(void)
 }
 
 /* A reset cuts the bus: the host sees the board go away and must reconnect. */
-void sim_usb_reboot(void) { drop_client(0); }
+void hal_sim_usb_reboot(void) { drop_client(0); }
 
-int sim_usb_tx_pending(void) { return U.tx != NULL; }
+int hal_sim_usb_tx_pending(void) { return U.tx != NULL; }
 
 /* ---- Moving bytes ------------------------------------------------------------------------ */
 
@@ -146,7 +146,7 @@ static void continue_tx(void)
     }
     if (U.tx) {
         U.tx = NULL;
-        sim_post(HAL_EV_USB_TX_DONE, 0);
+        hal_sim_post(HAL_EV_USB_TX_DONE, 0);
     }
 }
 
@@ -157,17 +157,17 @@ static int build_pollset(struct pollfd *p)
         p[n++] = (struct pollfd){.fd = U.listen_fd, .events = POLLIN};
     if (U.client_fd >= 0)
         p[n++] = (struct pollfd){.fd = U.client_fd, .events = (short)((U.rx_armed ? POLLIN : 0) | (U.tx ? POLLOUT : 0))};
-    if (sim_eof_fd >= 0)
-        p[n++] = (struct pollfd){.fd = sim_eof_fd, .events = POLLIN};
+    if (hal_sim_eof_fd >= 0)
+        p[n++] = (struct pollfd){.fd = hal_sim_eof_fd, .events = POLLIN};
     return n;
 }
 
 static void handle_eof_fd(void)
 {
     char sink[256];
-    ssize_t n = read(sim_eof_fd, sink, sizeof sink);
+    ssize_t n = read(hal_sim_eof_fd, sink, sizeof sink);
     if (n == 0 || (n < 0 && errno != EAGAIN && errno != EINTR)) {
-        sim_eof_fd = -1;
+        hal_sim_eof_fd = -1;
         hal_sim_request_stop();
     }
 }
@@ -180,13 +180,13 @@ static void handle_client(short revents)
         return;
     if (U.rx_armed && (revents & (POLLIN | POLLHUP | POLLERR))) {
         U.rx_armed = 0;
-        sim_post(HAL_EV_USB_RX, 0); /* the firmware's read meets the data, or the EOF */
+        hal_sim_post(HAL_EV_USB_RX, 0); /* the firmware's read meets the data, or the EOF */
     } else if (revents & (POLLHUP | POLLERR)) {
         drop_client(1); /* gone while the firmware was not reading */
     }
 }
 
-void sim_usb_pump(int timeout_ms)
+void hal_sim_usb_pump(int timeout_ms)
 {
     if (atomic_exchange(&unplug_requested, 0))
         drop_client(1);
@@ -201,7 +201,7 @@ void sim_usb_pump(int timeout_ms)
             accept_client();
         else if (p[i].fd == U.client_fd)
             handle_client(p[i].revents);
-        else if (p[i].fd == sim_eof_fd)
+        else if (p[i].fd == hal_sim_eof_fd)
             handle_eof_fd();
     }
 }

@@ -8,6 +8,7 @@
 #include "board.h"
 #include "hal.h"
 #include "hal_sim_emul.h"
+#include "simboard_loop.h"
 #include "wdr_err.h"
 #include "wdr_scene.h"
 #include "wdr_sim.h"
@@ -153,7 +154,7 @@ int main(int argc, char **argv)
     watch_parent_pipe();
     fprintf(stderr, "wdr-simboard: %s %ux%u serving wdrctl --device sim:%s (SIGTERM or Ctrl-C stops)\n", b.name,
             b.width, b.height, o.socket);
-    if (hal_init() != WDR_OK || (rc = hal_sim_serve()) != WDR_OK) {
+    if (hal_init() != WDR_OK || (rc = simboard_serve()) != WDR_OK) {
         fprintf(stderr, "wdr-simboard: firmware did not start: %s\n", wdr_strerror(rc));
         hal_sim_teardown();
         return EX_SOFTWARE;

@@ -1,5 +1,6 @@
 /* Calibration acquisition and the simulator frame source. */
 #include "cal_engine.h"
+#include "ramp.h"
 #include "wdr_err.h"
 #include <math.h>
 #include <stdio.h>
@@ -148,7 +149,7 @@ int wdr_cal_sim_capture(void *ctx, double amps, int frame_no, float *frame)
 static int build_lut(const wdr_board *b, const char *op_name, double margin_v, uint8_t **bytes, size_t *len,
                      char *err, int errlen)
 {
-    int rc = wdr_sim_build_lut(b, op_name, bytes, len, NULL, err, errlen);
+    int rc = wdr_ramp_board_lut(b, op_name, bytes, len, NULL, err, errlen);
     if (rc || margin_v <= 0)
         return rc;
     uint8_t *ext;

@@ -61,7 +61,7 @@ static void known_names(char *buf, size_t len)
     }
 }
 
-int wdr_operator_init(wdr_operator *op, const char *name, const wdr_scene_stats *stats, char *err, int errlen)
+int wdr_operator_init(wdr_operator *op, const char *name, const wdr_lum_stats *stats, char *err, int errlen)
 {
     const wdr_operator_info *info = wdr_operator_info_by_name(name);
     if (!info) {
@@ -206,7 +206,7 @@ static double eval_user(const wdr_operator *op, double lw)
 
 double wdr_operator_eval(const wdr_operator *op, double lw)
 {
-    const wdr_scene_stats *s = &op->stats;
+    const wdr_lum_stats *s = &op->stats;
     if (!(lw > 0))
         return 0;
     if (isinf(lw))
@@ -318,7 +318,7 @@ int wdr_operator_load_curve(wdr_operator *op, const char *path, char *err, int e
 
 /* ---- scene statistics ---- */
 
-int wdr_scene_stats_measure(const float *lum, long n, wdr_scene_stats *out)
+int wdr_lum_stats_measure(const float *lum, long n, wdr_lum_stats *out)
 {
     /* Guard: values at or below 1e-9 of the maximum are clamped there before the log. */
     double lmax = 0, sum = 0;
@@ -343,8 +343,8 @@ int wdr_scene_stats_measure(const float *lum, long n, wdr_scene_stats *out)
     return used > 0x7fffffff ? 0x7fffffff : (int)used;
 }
 
-void wdr_scene_stats_default(double i_min, double i_center, double i_max, double lum_per_amp, double key,
-                             wdr_scene_stats *out)
+void wdr_lum_stats_default(double i_min, double i_center, double i_max, double lum_per_amp, double key,
+                             wdr_lum_stats *out)
 {
     out->l_avg = key * lum_per_amp * i_center;
     out->l_max = lum_per_amp * i_max;

@@ -447,7 +447,7 @@ static double steps_response(const wdr_ideal_pixel *px, const lut_steps *s, doub
     return s->v[s->n - 1];
 }
 
-double wdr_lut_ideal_response(const wdr_ideal_pixel *px, const wdr_lut_view *lut, double i)
+double wdr_ramp_lut_ideal_response(const wdr_ideal_pixel *px, const wdr_lut_view *lut, double i)
 {
     lut_steps s;
     if (lut_steps_init(px, lut, &s))
@@ -457,7 +457,7 @@ double wdr_lut_ideal_response(const wdr_ideal_pixel *px, const wdr_lut_view *lut
     return v;
 }
 
-double wdr_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operator *op, const wdr_lut_view *lut,
+double wdr_ramp_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operator *op, const wdr_lut_view *lut,
                                double i_min, double i_max, int n, double *worst_i)
 {
     double lsb = (lut->h.dac_hi_v - lut->h.dac_lo_v) / (double)((1u << lut->h.dac_bits) - 1u), worst = 0;

@@ -56,11 +56,18 @@ int wdr_ramp_quantise(const wdr_ramp *r, const wdr_board *b, const wdr_operator 
                       uint32_t entries, uint8_t **out, size_t *out_len, char *err, int errlen);
 
 /* Held G value of an ideal pixel with current i under a quantised LUT (step crossing). */
-double wdr_lut_ideal_response(const wdr_ideal_pixel *px, const wdr_lut_view *lut, double i);
+double wdr_ramp_lut_ideal_response(const wdr_ideal_pixel *px, const wdr_lut_view *lut, double i);
 
 /* Worst |response - g(I)| in DAC LSB over n log-spaced currents in [i_min, i_max];
  * *worst_i gets the current where it happens (may be NULL). */
-double wdr_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operator *op, const wdr_lut_view *lut,
+double wdr_ramp_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operator *op, const wdr_lut_view *lut,
                                double i_min, double i_max, int n, double *worst_i);
+
+/* Build a LUT for board b from operator op_name with default parameters and the board's
+ * photocurrent range and DAC timing (as `wdrctl lut build`). *bytes is malloc'd (free()).
+ * ramp, if not NULL, receives the continuous ramp (wdr_ramp_free it), for wdr_sim_set_ramp.
+ * @retval WDR_OK, or the operator/ramp errors (err says which) */
+int wdr_ramp_board_lut(const wdr_board *b, const char *op_name, uint8_t **bytes, size_t *len,
+                      wdr_ramp *ramp, char *err, int errlen);
 
 #endif

@@ -151,7 +151,7 @@ static int load_board(const char *name, wdr_board *b)
 }
 
 /* Scene statistics measured from an HDR image (luminance in cd/m2). */
-int wdrctl_stats_from_image(const char *path, wdr_scene_stats *st)
+int wdrctl_stats_from_image(const char *path, wdr_lum_stats *st)
 {
     char err[512];
     float *lum;
@@ -160,7 +160,7 @@ int wdrctl_stats_from_image(const char *path, wdr_scene_stats *st)
     int w, h, rc = wdr_hdr_load(path, &lum, &w, &h, err, sizeof err);
     if (rc)
         return wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_DATAERR, "%s", err);
-    rc = wdr_scene_stats_measure(lum, (long)w * h, st);
+    rc = wdr_lum_stats_measure(lum, (long)w * h, st);
     free(lum);
     if (rc < 0)
         return wdrctl_fail(EX_DATAERR, "%s: field 'pixels': no finite positive luminance", path);
@@ -172,8 +172,8 @@ int wdrctl_stats_from_image(const char *path, wdr_scene_stats *st)
 static int setup_operator(const lut_opts *o, const wdr_board *b, wdr_operator *op)
 {
     char err[512];
-    wdr_scene_stats st;
-    wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    wdr_lum_stats st;
+    wdr_lum_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
     int ex = o->scene_image ? wdrctl_stats_from_image(o->scene_image, &st) : EX_OK;
     if (ex != EX_OK)
         return ex;
@@ -217,7 +217,7 @@ static int build_lut(const lut_opts *o, const wdr_board *b, const wdr_operator *
     if (rc) /* our own encoder produced it: a failure here is a bug, but say so rather than abort */
         return wdrctl_fail(EX_SOFTWARE, "internal: built LUT does not parse (%s)", wdr_strerror(rc));
     r->worst_lsb =
-        wdr_lut_worst_error_lsb(&r->px, op, &r->view, b->i_min_a, b->i_max_a, CHECK_CURRENTS, &r->worst_i);
+        wdr_ramp_lut_worst_error_lsb(&r->px, op, &r->view, b->i_min_a, b->i_max_a, CHECK_CURRENTS, &r->worst_i);
     return EX_OK;
 }
 
@@ -315,7 +315,7 @@ static int write_plot_data(const char *dir, const char *tag, const wdr_operator 
         return EX_CANTCREAT;
     for (int j = 0; j <= 300; j++) {
         double i = b->i_min_a * pow(b->i_max_a / b->i_min_a, j / 300.0);
-        fprintf(f, "%.9g %.9g %.9g\n", i, wdr_ideal_target(&r->px, op, i), wdr_lut_ideal_response(&r->px, &r->view, i));
+        fprintf(f, "%.9g %.9g %.9g\n", i, wdr_ideal_target(&r->px, op, i), wdr_ramp_lut_ideal_response(&r->px, &r->view, i));
     }
     fclose(f);
     return EX_OK;

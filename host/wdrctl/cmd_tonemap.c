@@ -51,8 +51,8 @@ static int load_inputs(const tonemap_opts *o, wdr_board *b, wdr_scene *sc, wdr_o
     int rc = wdr_board_load(path, b, err, sizeof err);
     if (!rc)
         rc = wdr_scene_load(o->scene, b, sc, err, sizeof err);
-    wdr_scene_stats st;
-    wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    wdr_lum_stats st;
+    wdr_lum_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
     if (!rc && o->scene_image && wdrctl_stats_from_image(o->scene_image, &st) != EX_OK)
         return EX_DATAERR;
     if (!rc)

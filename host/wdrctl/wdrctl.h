@@ -30,9 +30,9 @@ int cmd_sim_illuminant(int argc, char **argv);
 int cmd_calibrate(int argc, char **argv);
 int cmd_fpn_report(int argc, char **argv);
 
-/* Scene statistics of an HDR image (wdr_scene_stats in operators.h); a sysexits code. */
-struct wdr_scene_stats;
-int wdrctl_stats_from_image(const char *path, struct wdr_scene_stats *st);
+/* Scene statistics of an HDR image (wdr_lum_stats in operators.h); a sysexits code. */
+struct wdr_lum_stats;
+int wdrctl_stats_from_image(const char *path, struct wdr_lum_stats *st);
 
 /* Print "wdrctl: " and a formatted message to stderr; returns code. */
 int wdrctl_fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));

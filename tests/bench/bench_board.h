@@ -5,6 +5,7 @@
 #include "board.h"
 #include "hal.h"
 #include "hal_sim_emul.h"
+#include "simboard_loop.h"
 #include "wdr_err.h"
 #include "wdr_scene.h"
 #include <pthread.h>
@@ -13,7 +14,7 @@
 static void *bench_serve(void *arg)
 {
     (void)arg;
-    hal_sim_serve();
+    simboard_serve();
     return NULL;
 }
 

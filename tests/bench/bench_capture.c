@@ -28,11 +28,11 @@ static int die(const char *what, const char *why) { return bench_die("bench_capt
 static int reinhard_lut(const wdr_board *b, uint8_t **bytes, size_t *len)
 {
     static wdr_operator op;
-    wdr_scene_stats st;
+    wdr_lum_stats st;
     wdr_ideal_pixel px;
     wdr_ramp ramp;
     char err[512];
-    wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    wdr_lum_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
     wdr_ideal_pixel_init(b, &px);
     if (wdr_operator_init(&op, "reinhard", &st, err, sizeof err) != WDR_OK ||
         wdr_ramp_build(&px, &op, b->i_min_a, b->i_max_a, 8192, WDR_RAMP_FAIL, &ramp, err, sizeof err) != WDR_OK)

@@ -58,7 +58,7 @@ static int run_row(const wdr_board *base, const wdr_operator *op, const row *r)
         return 1;
     }
     double lsb_mv = (b.dac_hi_v - b.dac_lo_v) / ((1 << b.dac_bits) - 1) * 1e3;
-    double worst = wdr_lut_worst_error_lsb(&px, op, &v, b.i_min_a, b.i_max_a, 2001, NULL);
+    double worst = wdr_ramp_lut_worst_error_lsb(&px, op, &v, b.i_min_a, b.i_max_a, 2001, NULL);
     printf("%-8s %4d %9.0e %8u %9.2f %10.3f %10.3f %10.3f %11.1f\n", r->mode, r->dac_bits, r->timer_hz,
            v.h.entry_count, (t1 - t0) * 1e3, worst, worst * lsb_mv,
            v.h.t_integration_ticks * (v.h.tick_ps * 1e-12) * 1e3, min_step_ns(&v));
@@ -74,11 +74,11 @@ int main(int argc, char **argv)
     char path[1024], err[512];
     wdr_board b;
     static wdr_operator op;
-    wdr_scene_stats st;
+    wdr_lum_stats st;
     wdr_board_defaults(&b);
     wdr_board_path("sim-vga", path, sizeof path);
     if (wdr_board_load(path, &b, err, sizeof err) ||
-        (wdr_scene_stats_default(b.i_min_a, b.i_center_a, b.i_max_a, b.lum_per_amp, 0.18, &st),
+        (wdr_lum_stats_default(b.i_min_a, b.i_center_a, b.i_max_a, b.lum_per_amp, 0.18, &st),
          wdr_operator_init(&op, op_name, &st, err, sizeof err))) {
         fprintf(stderr, "bench_lut: %s\n", err);
         return 1;

@@ -5,6 +5,7 @@
  * (b) <= 50 ns/pixel on one core, >= 80 % efficiency on 2 cores. --quick: 320x180. */
 #include "wdr_err.h"
 #include "wdr_scene.h"
+#include "ramp.h"
 #include "wdr_sim.h"
 #include <stdio.h>
 #include <stdlib.h>
@@ -87,7 +88,7 @@ static int bench_auto(const wdr_board *b, int reps, int cores, uint16_t *frame)
         char err[512];
         wdr_lut_view lut;
         wdr_sim *s = wdr_sim_create(b, sc.chip_seed);
-        if (!s || wdr_sim_build_lut(b, "reinhard", &bytes, &len, NULL, err, sizeof err) ||
+        if (!s || wdr_ramp_board_lut(b, "reinhard", &bytes, &len, NULL, err, sizeof err) ||
             wdr_lut_parse(bytes, len, &lut) || wdr_sim_set_lut(s, &lut) || wdr_scene_apply(&sc, s))
             return fprintf(stderr, "bench_sim: set-up failed for %s\n", scenes[k]), 1;
         double t_auto = ns_per_pixel(s, cores, reps, frame);
@@ -123,7 +124,7 @@ int main(int argc, char **argv)
     uint16_t *frame = malloc((size_t)b.width * b.height * sizeof *frame);
     if (!frame || load_scene("window", &b, &sc))
         return 1;
-    if (wdr_sim_build_lut(&b, "reinhard", &bytes, &len, NULL, err, sizeof err) || wdr_lut_parse(bytes, len, &lut))
+    if (wdr_ramp_board_lut(&b, "reinhard", &bytes, &len, NULL, err, sizeof err) || wdr_lut_parse(bytes, len, &lut))
         return fprintf(stderr, "bench_sim: LUT: %s\n", err), 1;
     double t0 = now();
     wdr_sim *s = wdr_sim_create(&b, 1);

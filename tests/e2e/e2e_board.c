@@ -216,11 +216,11 @@ int e2e_run(char *const argv[], int deadline_s)
 int e2e_reinhard_lut(const wdr_board *b, uint8_t **bytes, size_t *len)
 {
     static wdr_operator op; /* large (user-curve knots): not on the stack */
-    wdr_scene_stats st;
+    wdr_lum_stats st;
     wdr_ideal_pixel px;
     wdr_ramp ramp;
     char err[512];
-    wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    wdr_lum_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
     wdr_ideal_pixel_init(b, &px);
     int rc = wdr_operator_init(&op, "reinhard", &st, err, sizeof err);
     if (rc == WDR_OK)
@@ -251,7 +251,7 @@ uint16_t e2e_software_code(const wdr_board *b, const uint8_t *lut, size_t lut_le
     if (wdr_lut_parse(lut, lut_len, &view) != WDR_OK)
         return 0xffff;
     wdr_ideal_pixel_init(b, &px);
-    return adc_code(b, wdr_pixel_sf_out(&px.dev, wdr_lut_ideal_response(&px, &view, amps)));
+    return adc_code(b, wdr_pixel_sf_out(&px.dev, wdr_ramp_lut_ideal_response(&px, &view, amps)));
 }
 
 typedef struct soft_model {
@@ -265,7 +265,7 @@ typedef struct soft_model {
 
 static uint16_t soft_code(const soft_model *m, long pixel)
 {
-    return adc_code(m->b, wdr_pixel_sf_out(&m->px.dev, wdr_lut_ideal_response(&m->px, &m->view, m->amps[pixel])));
+    return adc_code(m->b, wdr_pixel_sf_out(&m->px.dev, wdr_ramp_lut_ideal_response(&m->px, &m->view, m->amps[pixel])));
 }
 
 /* The response falls monotonically with light, so pixels between two sorted currents with the

@@ -37,7 +37,7 @@ void e2e_stop(e2e_board *e);
 int e2e_reinhard_lut(const wdr_board *b, uint8_t **bytes, size_t *len);
 
 /* The software tone-mapped scene: each pixel's photocurrent through the ideal pixel driven by
- * lut (wdr_lut_ideal_response), the nominal source follower and the board's ADC line, rounded.
+ * lut (wdr_ramp_lut_ideal_response), the nominal source follower and the board's ADC line, rounded.
  * codes gets width*height values. */
 int e2e_software_frame(const wdr_board *b, const char *scene_path, const uint8_t *lut, size_t lut_len,
                        uint16_t *codes);

@@ -5,6 +5,7 @@
 #include "e2e_board.h"
 #include "hal.h"
 #include "hal_sim_emul.h"
+#include "simboard_loop.h"
 #include "wdr_err.h"
 #include "wdr_sim.h"
 #include <setjmp.h>
@@ -28,7 +29,7 @@ static size_t lut_len;
 static void *serve(void *arg)
 {
     (void)arg;
-    hal_sim_serve();
+    simboard_serve();
     return NULL;
 }
 

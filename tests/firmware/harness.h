@@ -2,7 +2,7 @@
  * collect responses and frames, build tables. */
 #ifndef HARNESS_H
 #define HARNESS_H
-#include "fake_board.h"
+#include "fake_hal.h"
 #include "table_builders.h"
 #include "wdr_fw.h"
 #include "wdr_proto.h"

@@ -2,7 +2,7 @@
  * bytes, random-length frames that carry the right sequence number, and random ROW and
  * FRAME_END events. Whatever arrives, each call returns OK or an error code, never reads or
  * writes out of bounds (run under ASan+UBSan in CI), and never waits past its timeouts. */
-#include "fake_board.h"
+#include "scripted_board.h"
 #include "transport.h"
 #include "transport_client.h"
 #include "wdr_err.h"
@@ -26,7 +26,7 @@ static uint32_t rnd(void)
     return (uint32_t)(rng_state >> 33);
 }
 
-static void send_junk(fake_board *b)
+static void send_junk(scripted_board *b)
 {
     uint8_t junk[300];
     uint32_t n = rnd() % sizeof junk;
@@ -35,7 +35,7 @@ static void send_junk(fake_board *b)
     fake_send_raw(b, junk, n);
 }
 
-static void send_random_frame(fake_board *b, const wdr_packet *req)
+static void send_random_frame(scripted_board *b, const wdr_packet *req)
 {
     uint8_t payload[600];
     uint32_t len = rnd() % sizeof payload;
@@ -59,7 +59,7 @@ static void send_random_frame(fake_board *b, const wdr_packet *req)
     }
 }
 
-static int script_hostile(fake_board *b, const wdr_packet *req, int n)
+static int script_hostile(scripted_board *b, const wdr_packet *req, int n)
 {
     (void)n;
     if (req->h.opcode == WDR_CMD_INFO && rnd() % 2) {
@@ -78,12 +78,12 @@ static int script_hostile(fake_board *b, const wdr_packet *req, int n)
 static void one_round(uint64_t seed)
 {
     int sv[2];
-    fake_board b = {.width = 16, .height = 8};
+    scripted_board b = {.width = 16, .height = 8};
     wdr_transport *t;
     wdr_client *c = calloc(1, sizeof *c);
     rng_state = seed;
     assert_int_equal(socketpair(AF_UNIX, SOCK_STREAM, 0, sv), 0);
-    fake_board_start_fd(&b, sv[1], script_hostile);
+    scripted_board_start_fd(&b, sv[1], script_hostile);
     assert_int_equal(wdr_transport_from_fd(sv[0], "fuzz", &t), WDR_OK);
     c->timeout_ms = 5;
     c->retries = 1;
@@ -103,7 +103,7 @@ static void one_round(uint64_t seed)
     }
     assert_true(strlen(c->err) < sizeof c->err);
     wdr_transport_close(t);
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
     free(c);
 }
 

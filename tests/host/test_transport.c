@@ -1,6 +1,6 @@
 /* Transport and protocol client against a scripted fake board over a socketpair: timeouts,
  * retries, resynchronisation after garbage, disconnects mid-transfer, bad answers. */
-#include "fake_board.h"
+#include "scripted_board.h"
 #include "transport.h"
 #include "transport_client.h"
 #include "crc32.h"
@@ -17,7 +17,7 @@
 #include <unistd.h>
 
 typedef struct rig {
-    fake_board board;
+    scripted_board board;
     wdr_transport *t;
     wdr_client *c;
 } rig;
@@ -28,7 +28,7 @@ static rig *rig_start(fake_script script, int timeout_ms)
     assert_int_equal(socketpair(AF_UNIX, SOCK_STREAM, 0, sv), 0);
     rig *r = calloc(1, sizeof *r);
     r->c = calloc(1, sizeof *r->c);
-    fake_board_start_fd(&r->board, sv[1], script);
+    scripted_board_start_fd(&r->board, sv[1], script);
     assert_int_equal(wdr_transport_from_fd(sv[0], "test", &r->t), WDR_OK);
     r->c->timeout_ms = timeout_ms;
     r->c->retries = 2;
@@ -38,14 +38,14 @@ static rig *rig_start(fake_script script, int timeout_ms)
 static void rig_stop(rig *r)
 {
     wdr_transport_close(r->t);
-    fake_board_stop(&r->board);
+    scripted_board_stop(&r->board);
     free(r->c);
     free(r);
 }
 
 /* ---- Transport -------------------------------------------------------------------------------- */
 
-static int script_silent(fake_board *b, const wdr_packet *req, int n)
+static int script_silent(scripted_board *b, const wdr_packet *req, int n)
 {
     (void)b, (void)req, (void)n;
     return 0;
@@ -139,7 +139,7 @@ static void connect_and_status(void **state)
 /* Drops the first INFO: the client must ask again with the same sequence number. */
 static uint16_t first_seq;
 static int seq_changed; /* checked by the test thread: cmocka asserts only work there */
-static int script_drop_first(fake_board *b, const wdr_packet *req, int n)
+static int script_drop_first(scripted_board *b, const wdr_packet *req, int n)
 {
     if (n == 0) {
         first_seq = req->h.seq;
@@ -173,7 +173,7 @@ static void gives_up_after_retries(void **state)
     rig_stop(r);
 }
 
-static int script_garbage_first(fake_board *b, const wdr_packet *req, int n)
+static int script_garbage_first(scripted_board *b, const wdr_packet *req, int n)
 {
     static const uint8_t junk[] = {0x57, 0x44, 0x00, 0x57, 0x13, 0x99, 'W', 'D', 'W', 1, 2, 3};
     fake_send_raw(b, junk, sizeof junk);
@@ -190,7 +190,7 @@ static void resyncs_after_garbage(void **state)
     rig_stop(r);
 }
 
-static int script_bad_crc_first(fake_board *b, const wdr_packet *req, int n)
+static int script_bad_crc_first(scripted_board *b, const wdr_packet *req, int n)
 {
     if (n == 0) {
         fake_reply_bad_crc(b, req);
@@ -208,7 +208,7 @@ static void garbled_answer_is_asked_again(void **state)
     rig_stop(r);
 }
 
-static int script_wrong_opcode(fake_board *b, const wdr_packet *req, int n)
+static int script_wrong_opcode(scripted_board *b, const wdr_packet *req, int n)
 {
     (void)n;
     wdr_packet fake = *req;
@@ -225,7 +225,7 @@ static void wrong_opcode_is_protocol_error(void **state)
     rig_stop(r);
 }
 
-static int script_old_board(fake_board *b, const wdr_packet *req, int n)
+static int script_old_board(scripted_board *b, const wdr_packet *req, int n)
 {
     (void)n;
     fake_reply_info(b, req, WDR_PROTO_VERSION_MAJOR + 1);
@@ -266,7 +266,7 @@ static void upload_checks_crc(void **state)
     rig_stop(r);
 }
 
-static int script_hangup_mid_upload(fake_board *b, const wdr_packet *req, int n)
+static int script_hangup_mid_upload(scripted_board *b, const wdr_packet *req, int n)
 {
     if (req->h.opcode == WDR_CMD_LUT_CHUNK && b->opcodes[WDR_CMD_LUT_CHUNK] == 2)
         return -1; /* unplugged during the second chunk */
@@ -286,7 +286,7 @@ static void disconnect_mid_upload(void **state)
     rig_stop(r);
 }
 
-static int script_refuse_commit(fake_board *b, const wdr_packet *req, int n)
+static int script_refuse_commit(scripted_board *b, const wdr_packet *req, int n)
 {
     if (req->h.opcode == WDR_CMD_CAL_COMMIT) {
         fake_reply(b, req, WDR_ST_BAD_GEOMETRY, NULL, 0);
@@ -310,7 +310,7 @@ static void refused_commit_reports_status_and_aborts(void **state)
     rig_stop(r);
 }
 
-static int script_wrong_readback(fake_board *b, const wdr_packet *req, int n)
+static int script_wrong_readback(scripted_board *b, const wdr_packet *req, int n)
 {
     if (req->h.opcode == WDR_CMD_LUT_COMMIT) {
         wdr_commit_reply c = {.crc = 0xdeadbeef};
@@ -358,7 +358,7 @@ static void capture_assembles_frames(void **state)
     rig_stop(r);
 }
 
-static int script_lose_a_row(fake_board *b, const wdr_packet *req, int n)
+static int script_lose_a_row(scripted_board *b, const wdr_packet *req, int n)
 {
     if (req->h.opcode != WDR_CMD_CAPTURE)
         return fake_script_good(b, req, n);
@@ -381,7 +381,7 @@ static void missing_rows_are_protocol_error(void **state)
     rig_stop(r);
 }
 
-static int script_capture_then_silence(fake_board *b, const wdr_packet *req, int n)
+static int script_capture_then_silence(scripted_board *b, const wdr_packet *req, int n)
 {
     if (req->h.opcode != WDR_CMD_CAPTURE)
         return fake_script_good(b, req, n);
@@ -402,7 +402,7 @@ static void capture_stall_times_out(void **state)
     rig_stop(r);
 }
 
-static int script_unplug_mid_frame(fake_board *b, const wdr_packet *req, int n)
+static int script_unplug_mid_frame(scripted_board *b, const wdr_packet *req, int n)
 {
     if (req->h.opcode != WDR_CMD_CAPTURE)
         return fake_script_good(b, req, n);

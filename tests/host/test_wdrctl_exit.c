@@ -1,7 +1,7 @@
 /* The wdrctl program against scripted fake boards on a socket: each failure (board absent,
  * silent, unplugged mid-upload, refusing, speaking another version) gives its sysexits code
  * and a message naming what failed. Every child is bounded by a deadline. */
-#include "fake_board.h"
+#include "scripted_board.h"
 #include "wdr_lut.h"
 #include <cJSON.h>
 #include <setjmp.h>
@@ -77,12 +77,12 @@ static int run_wdrctl(const char *const *args)
 }
 
 /* A fresh socket path and a fake board listening on it. */
-static const char *start_board(fake_board *b, fake_script script, char *addr, size_t cap)
+static const char *start_board(scripted_board *b, fake_script script, char *addr, size_t cap)
 {
     char path[128];
     snprintf(path, sizeof path, "%s/board%d.sock", dir, case_no++);
     memset(b, 0, sizeof *b);
-    assert_int_equal(fake_board_start_listen(b, path, script), 0);
+    assert_int_equal(scripted_board_start_listen(b, path, script), 0);
     snprintf(addr, cap, "sim:%s", path);
     return addr;
 }
@@ -98,20 +98,20 @@ static const char *write_file(const char *name, const void *bytes, size_t len)
     return path;
 }
 
-static int script_silent(fake_board *b, const wdr_packet *req, int n)
+static int script_silent(scripted_board *b, const wdr_packet *req, int n)
 {
     (void)b, (void)req, (void)n;
     return 0;
 }
 
-static int script_hangup_mid_upload(fake_board *b, const wdr_packet *req, int n)
+static int script_hangup_mid_upload(scripted_board *b, const wdr_packet *req, int n)
 {
     if (req->h.opcode == WDR_CMD_LUT_CHUNK && b->opcodes[WDR_CMD_LUT_CHUNK] == 2)
         return -1;
     return fake_script_good(b, req, n);
 }
 
-static int script_unplug_mid_frame(fake_board *b, const wdr_packet *req, int n)
+static int script_unplug_mid_frame(scripted_board *b, const wdr_packet *req, int n)
 {
     if (req->h.opcode != WDR_CMD_CAPTURE)
         return fake_script_good(b, req, n);
@@ -119,7 +119,7 @@ static int script_unplug_mid_frame(fake_board *b, const wdr_packet *req, int n)
     return -1;
 }
 
-static int script_refuse(fake_board *b, const wdr_packet *req, int n)
+static int script_refuse(scripted_board *b, const wdr_packet *req, int n)
 {
     int status = req->h.opcode == WDR_CMD_CAL_COMMIT ? WDR_ST_BAD_GEOMETRY
                : req->h.opcode == WDR_CMD_SIM_SET_ILLUMINANT ? WDR_ST_UNSUPPORTED
@@ -130,7 +130,7 @@ static int script_refuse(fake_board *b, const wdr_packet *req, int n)
     return 0;
 }
 
-static int script_other_version(fake_board *b, const wdr_packet *req, int n)
+static int script_other_version(scripted_board *b, const wdr_packet *req, int n)
 {
     (void)n;
     fake_reply_info(b, req, WDR_PROTO_VERSION_MAJOR + 1);
@@ -163,64 +163,64 @@ static void board_absent(void **state)
 static void board_silent(void **state)
 {
     (void)state;
-    fake_board b;
+    scripted_board b;
     char addr[160];
     start_board(&b, script_silent, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"status", "--device", addr, "--timeout", "100", "--retries", "1", NULL}),
                      EX_TEMPFAIL);
     assert_non_null(strstr(err_text, "no answer to INFO after 2 attempt"));
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
 }
 
 static void unplugged_mid_upload(void **state)
 {
     (void)state;
-    fake_board b;
+    scripted_board b;
     char addr[160];
     static uint8_t table[5 * 4096];
     const char *file = write_file("big.bin", table, sizeof table);
     start_board(&b, script_hangup_mid_upload, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"lut", "upload", file, "--no-verify", "--device", addr, NULL}), EX_IOERR);
     assert_non_null(strstr(err_text, "disconnected"));
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
 }
 
 static void unplugged_mid_capture(void **state)
 {
     (void)state;
-    fake_board b;
+    scripted_board b;
     char addr[160], out[128];
     snprintf(out, sizeof out, "%s/lost.png", dir);
     start_board(&b, script_unplug_mid_frame, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"capture", "-n", "3", "-o", out, "--device", addr, NULL}), EX_IOERR);
     assert_non_null(strstr(err_text, "disconnected"));
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
 }
 
 static void refused_upload(void **state)
 {
     (void)state;
-    fake_board b;
+    scripted_board b;
     char addr[160];
     const char *file = write_file("cal.bin", "0123456789", 10);
     start_board(&b, script_refuse, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"cal", "upload", file, "--no-verify", "--device", addr, NULL}),
                      EX_DATAERR);
     assert_non_null(strstr(err_text, "bad geometry"));
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
 }
 
 static void bad_table_files(void **state)
 {
     (void)state;
-    fake_board b;
+    scripted_board b;
     char addr[160];
     const char *junk = write_file("junk.lut", "not a lut at all, just some text", 33);
     start_board(&b, fake_script_good, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"lut", "upload", junk, "--device", addr, NULL}), EX_DATAERR);
     assert_non_null(strstr(err_text, "junk.lut"));
     assert_int_equal(b.opcodes[WDR_CMD_LUT_BEGIN], 0); /* refused before anything was sent */
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
     char missing[128];
     snprintf(missing, sizeof missing, "%s/missing.bin", dir);
     assert_int_equal(run_wdrctl((const char *[]){"lut", "upload", missing, "--device", addr, NULL}), EX_NOINPUT);
@@ -229,33 +229,33 @@ static void bad_table_files(void **state)
 static void refused_requests(void **state)
 {
     (void)state;
-    fake_board b;
+    scripted_board b;
     char addr[160], out[128];
     snprintf(out, sizeof out, "%s/none.png", dir);
     start_board(&b, script_refuse, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"sim", "illuminant", "1e-11", "--device", addr, NULL}), EX_UNAVAILABLE);
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
     start_board(&b, script_refuse, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"capture", "-o", out, "--device", addr, NULL}), EX_CONFIG);
     assert_non_null(strstr(err_text, "no table"));
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
 }
 
 static void other_protocol_version(void **state)
 {
     (void)state;
-    fake_board b;
+    scripted_board b;
     char addr[160];
     start_board(&b, script_other_version, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"info", "--device", addr, NULL}), EX_PROTOCOL);
     assert_non_null(strstr(err_text, "protocol 2.0"));
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
 }
 
 static void json_reports(void **state)
 {
     (void)state;
-    fake_board b;
+    scripted_board b;
     char addr[160];
     start_board(&b, fake_script_good, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"info", "--json", "--device", addr, NULL}), EX_OK);
@@ -264,7 +264,7 @@ static void json_reports(void **state)
     assert_int_equal(cJSON_GetObjectItem(info, "width")->valuedouble, 16);
     assert_string_equal(cJSON_GetObjectItem(info, "board")->valuestring, "fake");
     cJSON_Delete(info);
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
     start_board(&b, fake_script_good, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"status", "--json", "--device", addr, NULL}), EX_OK);
     cJSON *st = cJSON_Parse(out_text);
@@ -272,14 +272,14 @@ static void json_reports(void **state)
     assert_string_equal(cJSON_GetObjectItem(cJSON_GetObjectItem(st, "lut"), "slot")->valuestring, "A");
     assert_int_equal(cJSON_GetObjectItem(st, "integration_ns")->valuedouble, 1000000);
     cJSON_Delete(st);
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
     assert_int_equal(run_wdrctl((const char *[]){"capture", "--json", "-o", "x.png", NULL}), EX_USAGE);
 }
 
 static void good_board_round_trip(void **state)
 {
     (void)state;
-    fake_board b;
+    scripted_board b;
     char addr[160], png[128], pfm[128];
     struct stat st;
     static uint8_t table[9000];
@@ -288,18 +288,18 @@ static void good_board_round_trip(void **state)
     snprintf(pfm, sizeof pfm, "%s/frame.pfm", dir);
     start_board(&b, fake_script_good, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"lut", "upload", file, "--no-verify", "--device", addr, NULL}), EX_OK);
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
     start_board(&b, fake_script_good, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"capture", "-n", "2", "-o", png, "--bits", "8", "--device", addr, NULL}),
                      EX_OK);
     snprintf(png, sizeof png, "%s/frame-0001.png", dir);
     assert_int_equal(stat(png, &st), 0);
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
     start_board(&b, fake_script_good, addr, sizeof addr);
     assert_int_equal(run_wdrctl((const char *[]){"capture", "-o", pfm, "--device", addr, NULL}), EX_OK);
     assert_int_equal(stat(pfm, &st), 0);
     assert_true(st.st_size > 16 * 8 * 4);
-    fake_board_stop(&b);
+    scripted_board_stop(&b);
 }
 
 int main(void)

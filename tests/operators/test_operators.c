@@ -74,7 +74,7 @@ static void bad_parameters_are_named(void **state)
     expect_param_error("drago", "bias=abc", "'abc' is not a number");
     expect_param_error("drago", "colour=1", "no parameter 'colour'");
     expect_param_error("drago", "bias", "expected key=value");
-    wdr_scene_stats st = {1, 1, 1};
+    wdr_lum_stats st = {1, 1, 1};
     assert_int_equal(wdr_operator_init(&op, "mantiuk", &st, err, sizeof err), WDR_E_INVAL);
     assert_non_null(strstr(err, "unknown operator 'mantiuk'"));
     setup_op("reinhard");
@@ -123,15 +123,15 @@ static void bad_user_curves_are_refused(void **state)
 static void scene_stats_are_guarded(void **state)
 {
     (void)state;
-    wdr_scene_stats s;
+    wdr_lum_stats s;
     float lum[6] = {1.0f, 100.0f, 0.0f, -0.01f, NAN, INFINITY};
-    assert_int_equal(wdr_scene_stats_measure(lum, 6, &s), 4);
+    assert_int_equal(wdr_lum_stats_measure(lum, 6, &s), 4);
     assert_true(isfinite(s.l_avg) && s.l_avg > 0 && s.l_max == 100.0 && s.l_min > 0);
     float flat[3] = {2, 2, 2};
-    assert_int_equal(wdr_scene_stats_measure(flat, 3, &s), 3);
+    assert_int_equal(wdr_lum_stats_measure(flat, 3, &s), 3);
     assert_double_equal(s.l_avg, 2.0, 1e-9);
     float dark[2] = {0, -1};
-    assert_int_equal(wdr_scene_stats_measure(dark, 2, &s), WDR_E_INVAL);
+    assert_int_equal(wdr_lum_stats_measure(dark, 2, &s), WDR_E_INVAL);
 }
 
 static void write_text(const char *path, const char *text)

@@ -46,7 +46,7 @@ static double worst_lsb_for(const char *board, const char *name, int repair)
     assert_int_equal(wdr_ramp_build(&px, &op, b.i_min_a, b.i_max_a, 8192, repair, &r, err, sizeof err), WDR_OK);
     assert_int_equal(wdr_ramp_quantise(&r, &b, &op, WDR_TIMING_STAMPED, 0, &bytes, &len, err, sizeof err), WDR_OK);
     assert_int_equal(wdr_lut_parse(bytes, len, &v), WDR_OK);
-    double worst = wdr_lut_worst_error_lsb(&px, &op, &v, b.i_min_a, b.i_max_a, 3001, NULL);
+    double worst = wdr_ramp_lut_worst_error_lsb(&px, &op, &v, b.i_min_a, b.i_max_a, 3001, NULL);
     printf("  %-18s on %-12s %5u entries, worst %.3f LSB\n", name, board, v.h.entry_count, worst);
     wdr_ramp_free(&r);
     free(bytes);
@@ -167,7 +167,7 @@ static void uniform_clock_error_falls_with_entries(void **state)
         wdr_lut_view v;
         assert_int_equal(wdr_ramp_quantise(&r, &b, &op, WDR_TIMING_UNIFORM, n, &bytes, &len, err, sizeof err), WDR_OK);
         assert_int_equal(wdr_lut_parse(bytes, len, &v), WDR_OK);
-        double w = wdr_lut_worst_error_lsb(&px, &op, &v, b.i_min_a, b.i_max_a, 1001, NULL);
+        double w = wdr_ramp_lut_worst_error_lsb(&px, &op, &v, b.i_min_a, b.i_max_a, 1001, NULL);
         printf("  uniform %6u entries: worst %.2f LSB\n", n, w);
         assert_true(w < prev);
         prev = w;

@@ -25,8 +25,8 @@ static inline void load_test_board(const char *name, wdr_board *b)
 static inline int init_default_op(wdr_operator *op, const wdr_board *b, const char *name)
 {
     char err[512];
-    wdr_scene_stats st;
-    wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    wdr_lum_stats st;
+    wdr_lum_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
     return wdr_operator_init(op, name, &st, err, sizeof err);
 }
 

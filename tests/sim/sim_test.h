@@ -42,7 +42,7 @@ static inline void test_chip_open(test_chip *tc, const wdr_board *b, const char 
     char err[512];
     size_t len;
     memset(tc, 0, sizeof *tc);
-    if (wdr_sim_build_lut(b, op, &tc->lut_bytes, &len, &tc->ramp, err, sizeof err))
+    if (wdr_ramp_board_lut(b, op, &tc->lut_bytes, &len, &tc->ramp, err, sizeof err))
         fail_msg("LUT for %s: %s", op, err);
     assert_int_equal(wdr_lut_parse(tc->lut_bytes, len, &tc->lut), WDR_OK);
     tc->s = wdr_sim_create(b, chip_seed);

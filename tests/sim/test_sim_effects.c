@@ -20,12 +20,12 @@ typedef struct fixture {
 static int setup(void **state)
 {
     fixture *f = calloc(1, sizeof *f);
-    wdr_scene_stats st;
+    wdr_lum_stats st;
     char err[256];
     test_board(&f->b, W, H);
     test_chip_open(&f->tc, &f->b, "reinhard", 11);
     wdr_ideal_pixel_init(&f->b, &f->px);
-    wdr_scene_stats_default(f->b.i_min_a, f->b.i_center_a, f->b.i_max_a, f->b.lum_per_amp, 0.18, &st);
+    wdr_lum_stats_default(f->b.i_min_a, f->b.i_center_a, f->b.i_max_a, f->b.lum_per_amp, 0.18, &st);
     assert_int_equal(wdr_operator_init(&f->op, "reinhard", &st, err, sizeof err), WDR_OK);
     *state = f;
     return 0;

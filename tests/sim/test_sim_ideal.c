@@ -1,5 +1,5 @@
 /* With every effect off the simulator is the ideal pixel of the operators issue: the stepped
- * LUT gives wdr_lut_ideal_response exactly, the continuous ramp gives the operator's curve,
+ * LUT gives wdr_ramp_lut_ideal_response exactly, the continuous ramp gives the operator's curve,
  * both seen through the source follower and the ADC. */
 #include "sim_test.h"
 
@@ -27,7 +27,7 @@ static void stepped_matches_lut_response(const char *op, int timing, uint32_t en
     double worst = 0;
     for (int j = 0; j < N_CURRENTS; j++) {
         float *f = uniform_frame(tc.s, current_at(j), 1);
-        double want = ideal_code(&b, &px, wdr_lut_ideal_response(&px, &tc.lut, current_at(j)));
+        double want = ideal_code(&b, &px, wdr_ramp_lut_ideal_response(&px, &tc.lut, current_at(j)));
         worst = fmax(worst, fabs(f[0] - want));
         free(f);
     }
@@ -72,12 +72,12 @@ static void continuous_matches_operator(void **state)
     test_chip tc;
     wdr_ideal_pixel px;
     wdr_operator op;
-    wdr_scene_stats st;
+    wdr_lum_stats st;
     char err[256];
     test_board(&b, 4, 2);
     test_chip_open(&tc, &b, "reinhard", 1);
     wdr_ideal_pixel_init(&b, &px);
-    wdr_scene_stats_default(b.i_min_a, b.i_center_a, b.i_max_a, b.lum_per_amp, 0.18, &st);
+    wdr_lum_stats_default(b.i_min_a, b.i_center_a, b.i_max_a, b.lum_per_amp, 0.18, &st);
     assert_int_equal(wdr_operator_init(&op, "reinhard", &st, err, sizeof err), WDR_OK);
     only_effects(tc.s, -1);
     double dac_lsb_codes = test_adc_code(&b, 0.85 * (b.dac_hi_v - b.dac_lo_v) / 4095) - test_adc_code(&b, 0);
@@ -86,7 +86,7 @@ static void continuous_matches_operator(void **state)
         float *f = uniform_frame(tc.s, current_at(j), 1);
         double i = current_at(j);
         worst_target = fmax(worst_target, fabs(f[0] - ideal_code(&b, &px, wdr_ideal_target(&px, &op, i))));
-        worst_lut = fmax(worst_lut, fabs(f[0] - ideal_code(&b, &px, wdr_lut_ideal_response(&px, &tc.lut, i))));
+        worst_lut = fmax(worst_lut, fabs(f[0] - ideal_code(&b, &px, wdr_ramp_lut_ideal_response(&px, &tc.lut, i))));
         free(f);
     }
     printf("continuous ramp: worst |sim - g(I)| = %.3g ADC LSB, |sim - LUT response| = %.3g ADC LSB "
@@ -111,7 +111,7 @@ static void adc_rounds_ideal_code(void **state)
     for (int j = 0; j < N_CURRENTS; j++) {
         assert_int_equal(wdr_sim_set_uniform(tc.s, current_at(j)), WDR_OK);
         assert_int_equal(wdr_sim_render(tc.s, 1, frame), WDR_OK);
-        double want = ideal_code(&b, &px, wdr_lut_ideal_response(&px, &tc.lut, current_at(j)));
+        double want = ideal_code(&b, &px, wdr_ramp_lut_ideal_response(&px, &tc.lut, current_at(j)));
         assert_true(fabs(frame[0] - want) <= 0.5 + 2e-3);
         assert_int_equal(frame[0], frame[7]);
     }

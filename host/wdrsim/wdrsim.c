@@ -6,6 +6,7 @@
 #include "wdr_lut.h"
 #include "wdr_scene.h"
 #include "file_io.h"
+#include "ramp.h"
 #include "wdr_sim.h"
 #include <cJSON.h>
 #include <stdarg.h>
@@ -152,7 +153,7 @@ static int load_lut(const options *o, const wdr_board *b, uint8_t **bytes, wdr_l
     size_t len;
     char err[512];
     if (o->operator_name) {
-        int rc = wdr_sim_build_lut(b, o->operator_name, bytes, &len, NULL, err, sizeof err);
+        int rc = wdr_ramp_board_lut(b, o->operator_name, bytes, &len, NULL, err, sizeof err);
         if (rc)
             return fail(EX_USAGE, "--operator %s: %s", o->operator_name, err);
     } else if (read_lut_file(o->lut, bytes, &len)) {

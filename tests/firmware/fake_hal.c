@@ -1,5 +1,5 @@
-/* The test board: every hal.h function over plain memory (see fake_board.h). */
-#include "fake_board.h"
+/* The test board: every hal.h function over plain memory (see fake_hal.h). */
+#include "fake_hal.h"
 #include "hal.h"
 #include "wdr_proto.h"
 #include <assert.h>

@@ -2,20 +2,19 @@
  * LUT file: the same ramp generator and quantiser as `wdrctl lut build`. */
 #include "ramp.h"
 #include "wdr_err.h"
-#include "wdr_sim.h"
 #include <stdlib.h>
 
 #define RAMP_SAMPLES 8192
 
-int wdr_sim_build_lut(const wdr_board *b, const char *op_name, uint8_t **bytes, size_t *len, wdr_ramp *ramp,
+int wdr_ramp_board_lut(const wdr_board *b, const char *op_name, uint8_t **bytes, size_t *len, wdr_ramp *ramp,
                       char *err, int errlen)
 {
-    wdr_scene_stats st;
+    wdr_lum_stats st;
     wdr_operator op;
     wdr_ideal_pixel px;
     wdr_ramp local;
     wdr_ramp *r = ramp ? ramp : &local;
-    wdr_scene_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    wdr_lum_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
     int rc = wdr_operator_init(&op, op_name, &st, err, errlen);
     if (rc)
         return rc;

@@ -7,12 +7,12 @@
 #include <pthread.h>
 #include <stdint.h>
 
-typedef struct fake_board fake_board;
+typedef struct scripted_board scripted_board;
 
 /* What to do with one request; return 0 to go on, -1 to hang up. n is the request's index. */
-typedef int (*fake_script)(fake_board *b, const wdr_packet *req, int n);
+typedef int (*fake_script)(scripted_board *b, const wdr_packet *req, int n);
 
-struct fake_board {
+struct scripted_board {
     int fd;                 /* connected socket, or -1 until accepted */
     int listen_fd;          /* -1 when built on a socketpair */
     fake_script script;
@@ -26,31 +26,31 @@ struct fake_board {
 };
 
 /* Serve an already connected fd (one end of a socketpair). */
-void fake_board_start_fd(fake_board *b, int fd, fake_script script);
+void scripted_board_start_fd(scripted_board *b, int fd, fake_script script);
 
 /* Listen on path, accept one host, serve it. */
-int fake_board_start_listen(fake_board *b, const char *path, fake_script script);
+int scripted_board_start_listen(scripted_board *b, const char *path, fake_script script);
 
 /* Stop the thread and close the sockets. */
-void fake_board_stop(fake_board *b);
+void scripted_board_stop(scripted_board *b);
 
 /* Send a response to req with status and payload (len bytes). */
-void fake_reply(fake_board *b, const wdr_packet *req, int status, const void *payload, uint32_t len);
+void fake_reply(scripted_board *b, const wdr_packet *req, int status, const void *payload, uint32_t len);
 
 /* Send a response whose payload CRC is wrong. */
-void fake_reply_bad_crc(fake_board *b, const wdr_packet *req);
+void fake_reply_bad_crc(scripted_board *b, const wdr_packet *req);
 
 /* Send raw bytes. */
-void fake_send_raw(fake_board *b, const void *bytes, size_t len);
+void fake_send_raw(scripted_board *b, const void *bytes, size_t len);
 
 /* Send an event (ROW or FRAME_END) carrying seq. */
-void fake_event(fake_board *b, uint8_t opcode, uint16_t seq, const void *payload, uint32_t len);
+void fake_event(scripted_board *b, uint8_t opcode, uint16_t seq, const void *payload, uint32_t len);
 
 /* The INFO answer of a small board (width x height, 12-bit). */
-void fake_reply_info(fake_board *b, const wdr_packet *req, uint16_t major);
+void fake_reply_info(scripted_board *b, const wdr_packet *req, uint16_t major);
 
 /* A script that answers everything well: INFO, STATUS, uploads (commit with the right CRC), and
  * CAPTURE with whole frames of value (row + frame) */
-int fake_script_good(fake_board *b, const wdr_packet *req, int n);
+int fake_script_good(scripted_board *b, const wdr_packet *req, int n);
 
 #endif

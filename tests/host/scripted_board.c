@@ -1,5 +1,5 @@
-/* Scripted fake board (see fake_board.h). */
-#include "fake_board.h"
+/* Scripted fake board (see scripted_board.h). */
+#include "scripted_board.h"
 #include "crc32.h"
 #include "wdr_lut.h"
 #include <poll.h>
@@ -8,7 +8,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-static void send_all(fake_board *b, const uint8_t *p, size_t len)
+static void send_all(scripted_board *b, const uint8_t *p, size_t len)
 {
     while (len > 0 && b->fd >= 0) {
         ssize_t n = send(b->fd, p, len, MSG_NOSIGNAL);
@@ -19,9 +19,9 @@ static void send_all(fake_board *b, const uint8_t *p, size_t len)
     }
 }
 
-void fake_send_raw(fake_board *b, const void *bytes, size_t len) { send_all(b, bytes, len); }
+void fake_send_raw(scripted_board *b, const void *bytes, size_t len) { send_all(b, bytes, len); }
 
-void fake_reply(fake_board *b, const wdr_packet *req, int status, const void *payload, uint32_t len)
+void fake_reply(scripted_board *b, const wdr_packet *req, int status, const void *payload, uint32_t len)
 {
     uint8_t frame[WDR_PROTO_MAX_FRAME];
     wdr_proto_header h = {.opcode = req->h.opcode, .flags = WDR_FLAG_RESPONSE, .seq = req->h.seq,
@@ -30,7 +30,7 @@ void fake_reply(fake_board *b, const wdr_packet *req, int status, const void *pa
     send_all(b, frame, n);
 }
 
-void fake_reply_bad_crc(fake_board *b, const wdr_packet *req)
+void fake_reply_bad_crc(scripted_board *b, const wdr_packet *req)
 {
     uint8_t frame[WDR_PROTO_MAX_FRAME];
     uint8_t payload[4] = {1, 2, 3, 4};
@@ -40,7 +40,7 @@ void fake_reply_bad_crc(fake_board *b, const wdr_packet *req)
     send_all(b, frame, n);
 }
 
-void fake_event(fake_board *b, uint8_t opcode, uint16_t seq, const void *payload, uint32_t len)
+void fake_event(scripted_board *b, uint8_t opcode, uint16_t seq, const void *payload, uint32_t len)
 {
     uint8_t frame[WDR_PROTO_MAX_FRAME];
     wdr_proto_header h = {.opcode = opcode, .flags = WDR_FLAG_EVENT, .seq = seq};
@@ -48,7 +48,7 @@ void fake_event(fake_board *b, uint8_t opcode, uint16_t seq, const void *payload
     send_all(b, frame, n);
 }
 
-void fake_reply_info(fake_board *b, const wdr_packet *req, uint16_t major)
+void fake_reply_info(scripted_board *b, const wdr_packet *req, uint16_t major)
 {
     wdr_info info = {.proto_major = major, .proto_minor = 0, .fw_major = 1, .sensor_id = 0x1234,
                      .width = b->width, .height = b->height, .adc_bits = 12, .dac_bits = 12,
@@ -64,7 +64,7 @@ void fake_reply_info(fake_board *b, const wdr_packet *req, uint16_t major)
 
 static uint32_t up_crc, up_len;
 
-static void send_frames(fake_board *b, uint16_t seq, uint32_t frames)
+static void send_frames(scripted_board *b, uint16_t seq, uint32_t frames)
 {
     uint8_t row[WDR_PROTO_ROW_HEADER + 2 * 256];
     for (uint32_t f = 0; f < frames; f++) {
@@ -83,7 +83,7 @@ static void send_frames(fake_board *b, uint16_t seq, uint32_t frames)
     }
 }
 
-static void answer_upload(fake_board *b, const wdr_packet *req)
+static void answer_upload(scripted_board *b, const wdr_packet *req)
 {
     int step = req->h.opcode & 0x0f; /* BEGIN 0, CHUNK 1, COMMIT 2 */
     if (step == 0) {
@@ -103,7 +103,7 @@ static void answer_upload(fake_board *b, const wdr_packet *req)
     fake_reply(b, req, WDR_ST_OK, p, sizeof p);
 }
 
-int fake_script_good(fake_board *b, const wdr_packet *req, int n)
+int fake_script_good(scripted_board *b, const wdr_packet *req, int n)
 {
     (void)n;
     uint8_t st[WDR_STATUS_SIZE];
@@ -128,7 +128,7 @@ int fake_script_good(fake_board *b, const wdr_packet *req, int n)
 /* ---- The thread ------------------------------------------------------------------------------ */
 
 /* Wait for fd to be readable in 50 ms slices, until stop. 1 ready, 0 stopped. */
-static int wait_readable(fake_board *b, int fd)
+static int wait_readable(scripted_board *b, int fd)
 {
     while (!b->stop) {
         struct pollfd p = {.fd = fd, .events = POLLIN};
@@ -138,7 +138,7 @@ static int wait_readable(fake_board *b, int fd)
     return 0;
 }
 
-static void serve(fake_board *b)
+static void serve(scripted_board *b)
 {
     static __thread wdr_proto_decoder dec;
     uint8_t buf[8192];
@@ -165,7 +165,7 @@ static void serve(fake_board *b)
 
 static void *fake_main(void *arg)
 {
-    fake_board *b = arg;
+    scripted_board *b = arg;
     if (b->listen_fd >= 0) {
         if (!wait_readable(b, b->listen_fd))
             return NULL;
@@ -178,7 +178,7 @@ static void *fake_main(void *arg)
     return NULL;
 }
 
-static void init(fake_board *b, fake_script script)
+static void init(scripted_board *b, fake_script script)
 {
     if (!b->width)
         b->width = 16;
@@ -190,7 +190,7 @@ static void init(fake_board *b, fake_script script)
     memset(b->opcodes, 0, sizeof b->opcodes);
 }
 
-void fake_board_start_fd(fake_board *b, int fd, fake_script script)
+void scripted_board_start_fd(scripted_board *b, int fd, fake_script script)
 {
     init(b, script);
     b->fd = fd;
@@ -198,7 +198,7 @@ void fake_board_start_fd(fake_board *b, int fd, fake_script script)
     pthread_create(&b->thread, NULL, fake_main, b);
 }
 
-int fake_board_start_listen(fake_board *b, const char *path, fake_script script)
+int scripted_board_start_listen(scripted_board *b, const char *path, fake_script script)
 {
     struct sockaddr_un sa = {.sun_family = AF_UNIX};
     init(b, script);
@@ -211,7 +211,7 @@ int fake_board_start_listen(fake_board *b, const char *path, fake_script script)
     return 0;
 }
 
-void fake_board_stop(fake_board *b)
+void scripted_board_stop(scripted_board *b)
 {
     b->stop = 1;
     pthread_join(b->thread, NULL);

@@ -1,0 +1,111 @@
+# The layer check: every #include "..." in the product's sources must point to its own folder or
+# to a layer below. Run as `cmake -DSOURCE_DIR=<repo> -P check_layers.cmake`; prints the include
+# graph by folder (edge: count) and fails on the first upward or sideways edge it lists.
+#
+# Layers, bottom first (README.md draws the same picture):
+#   0 firmware/ and hal/hal.h      the bare-metal core and the one board contract
+#   1 sim/                         the physics: boards, device equations, scenes, the simulator
+#   2 hal/<backend>/               one backend per folder; a backend never includes another
+#   3 host/lib/                    operators, ramps, tone maps, transports
+#   4 host/cal/                    calibration
+#   5 programs                     wdrctl, wdrsim, wdr-simboard, wdr-board, the firmware images
+# Programs are files, not folders: they may include anything below them.
+set(layer_firmware 0)
+set(layer_hal 0)
+set(layer_sim 1)
+set(layer_hal/sim 2)
+set(layer_hal/linux 2)
+set(layer_hal/template 2)
+set(layer_hal/mps2 2)
+set(layer_host/lib 3)
+set(layer_host/cal 4)
+set(layer_host/wdrctl 5)
+set(layer_host/wdrsim 5)
+set(PROGRAMS hal/sim/wdr_simboard.c hal/sim/simboard_loop.c hal/sim/simboard_loop.h
+    hal/linux/wdr_board_main.c firmware/main_arm.c hal/mps2/main_mps2.c)
+
+if(NOT SOURCE_DIR)
+  message(FATAL_ERROR "usage: cmake -DSOURCE_DIR=<repo> -P check_layers.cmake")
+endif()
+file(GLOB_RECURSE sources RELATIVE ${SOURCE_DIR}
+     ${SOURCE_DIR}/firmware/*.[ch] ${SOURCE_DIR}/hal/*.[ch] ${SOURCE_DIR}/sim/*.[ch] ${SOURCE_DIR}/host/*.[ch]
+     ${SOURCE_DIR}/host/*.cpp)
+
+# Where each header lives: basename -> folder.
+foreach(f ${sources})
+  if(f MATCHES "\\.h$")
+    get_filename_component(name ${f} NAME)
+    get_filename_component(dir ${f} DIRECTORY)
+    if(DEFINED home_${name} AND NOT home_${name} STREQUAL dir)
+      message(FATAL_ERROR "layers: header ${name} exists in both ${home_${name}} and ${dir}: names must be unique")
+    endif()
+    set(home_${name} ${dir})
+  endif()
+endforeach()
+
+function(layer_of path out)
+  get_filename_component(dir ${path} DIRECTORY)
+  if(path STREQUAL "hal/hal.h")
+    set(dir hal)
+  endif()
+  if(NOT DEFINED layer_${dir})
+    message(FATAL_ERROR "layers: ${path} is in ${dir}, which has no layer (add it to check_layers.cmake)")
+  endif()
+  set(${out} ${layer_${dir}} PARENT_SCOPE)
+endfunction()
+
+set(bad "")
+set(edges "")
+foreach(f ${sources})
+  get_filename_component(from_dir ${f} DIRECTORY)
+  list(FIND PROGRAMS ${f} is_program)
+  if(is_program GREATER -1)
+    set(from_layer 5)
+    set(from_node "${from_dir} (programs)")
+  else()
+    layer_of(${f} from_layer)
+    set(from_node ${from_dir})
+  endif()
+  file(STRINGS ${SOURCE_DIR}/${f} includes REGEX "^[ \t]*#[ \t]*include[ \t]*\"")
+  foreach(line ${includes})
+    string(REGEX REPLACE ".*#[ \t]*include[ \t]*\"([^\"]+)\".*" "\\1" inc "${line}")
+    get_filename_component(name ${inc} NAME)
+    if(NOT DEFINED home_${name})
+      continue() # a Debian library's header (stb, OpenEXR) or a generated one
+    endif()
+    set(to_dir ${home_${name}})
+    if(to_dir STREQUAL from_dir)
+      continue()
+    endif()
+    layer_of(${to_dir}/${name} to_layer)
+    set(to_node ${to_dir})
+    if("${to_dir}/${name}" STREQUAL "hal/hal.h")
+      set(to_node "hal/hal.h")
+    endif()
+    list(APPEND edges "${from_node} -> ${to_node}")
+    if(to_layer GREATER from_layer OR (to_layer EQUAL from_layer AND from_layer EQUAL 2))
+      list(APPEND bad "${f} includes ${to_dir}/${name} (layer ${from_layer} -> ${to_layer})")
+    endif()
+  endforeach()
+endforeach()
+
+list(SORT edges)
+set(seen "")
+foreach(e ${edges})
+  list(FIND seen "${e}" found)
+  if(found EQUAL -1)
+    list(APPEND seen "${e}")
+    set(n 0)
+    foreach(e2 ${edges})
+      if(e2 STREQUAL e)
+        math(EXPR n "${n} + 1")
+      endif()
+    endforeach()
+    message(STATUS "  ${e}: ${n}")
+  endif()
+endforeach()
+if(bad)
+  string(REPLACE ";" "\n  " bad_text "${bad}")
+  message(FATAL_ERROR "layers: includes that point up or sideways:\n  ${bad_text}")
+endif()
+message(STATUS "layers: no include points up")

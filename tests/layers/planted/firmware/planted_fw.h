@@ -1,0 +1,1 @@
+/* A firmware header, so the fixture has the bottom layer. */

@@ -1,0 +1,1 @@
+/* A host header, for the planted fault. */
