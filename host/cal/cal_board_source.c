@@ -1,0 +1,96 @@
+/* A board as the calibration frame source (see cal_board_source.h). */
+#include "cal_board_source.h"
+#include "wdr_cal.h"
+#include "wdr_err.h"
+#include "wdr_lut.h"
+#include "wdr_proto.h"
+#include <stdlib.h>
+#include <string.h>
+
+static int on_board_frame(void *ctx, const wdr_frame *f)
+{
+    wdr_cal_board *d = ctx;
+    for (long i = 0; i < (long)f->width * f->height; i++)
+        d->frame[i] = f->codes[i];
+    return WDR_OK;
+}
+
+static int board_capture(void *ctx, double amps, int frame_no, float *frame)
+{
+    wdr_cal_board *d = ctx;
+    (void)frame_no;
+    if (amps != d->amps) {
+        int rc = d->simulated ? wdr_client_set_illuminant(d->client, amps) : d->ask_level(amps);
+        if (rc)
+            return rc;
+        d->amps = amps;
+    }
+    d->frame = frame;
+    return wdr_client_capture(d->client, 1, d->codes, on_board_frame, d);
+}
+
+int wdr_cal_board_open(wdr_cal_board *d, wdr_client *client, wdr_cal_ask_level_fn ask, wdr_cal_source *src)
+{
+    memset(d, 0, sizeof *d);
+    d->client = client;
+    d->amps = -1;
+    d->ask_level = ask;
+    const wdr_info *in = &client->info;
+    d->codes = malloc(sizeof(uint16_t) * (size_t)in->width * in->height);
+    if (!d->codes)
+        return WDR_E_NOMEM;
+    d->simulated = (in->caps & WDR_INFO_CAP_ILLUMINANT) != 0;
+    *src = (wdr_cal_source){in->width, in->height, board_capture, d};
+    return WDR_OK;
+}
+
+void wdr_cal_board_close(wdr_cal_board *d)
+{
+    free(d->codes);
+    d->codes = NULL;
+}
+
+int wdr_cal_board_store_passthrough(wdr_cal_board *d)
+{
+    const wdr_info *in = &d->client->info;
+    long np = (long)in->width * in->height;
+    uint16_t raw_max = (uint16_t)((1u << in->adc_bits) - 1u);
+    float *coeffs = malloc(sizeof(float) * 2 * (size_t)np);
+    uint8_t *flags = calloc((size_t)np, 1);
+    size_t len = wdr_cal_size(in->width, in->height, 2);
+    uint8_t *buf = malloc(len);
+    if (!coeffs || !flags || !buf) {
+        free(coeffs), free(flags), free(buf);
+        return WDR_E_NOMEM;
+    }
+    for (long i = 0; i < 2 * np; i++)
+        coeffs[i] = raw_max / 2.0f;
+    wdr_cal_header h = {.sensor_id = in->sensor_id, .width = in->width, .height = in->height,
+                        .form = WDR_FORM_POLY, .n_coeffs = 2, .in_scale = 2.0f / raw_max, .in_offset = -1,
+                        .out_scale = 1, .out_max = raw_max, .raw_max = raw_max};
+    wdr_cal_encode(&h, coeffs, flags, buf);
+    int rc = wdr_cal_board_store_table(d, buf, len);
+    free(coeffs), free(flags), free(buf);
+    return rc;
+}
+
+int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double *added_s, double *done_v,
+                            char *err, int errlen)
+{
+    uint8_t *ext = NULL;
+    size_t ext_len;
+    int rc = wdr_cal_lut_extend(lut, len, WDR_CAL_MARGIN_V, WDR_CAL_MARGIN_MAX_TIME_FRAC, &ext, &ext_len, added_s,
+                                done_v, err, errlen);
+    if (rc)
+        return rc;
+    wdr_commit_reply reply;
+    rc = wdr_client_upload(d->client, WDR_KIND_LUT, ext, ext_len, NULL, NULL, &reply);
+    free(ext);
+    return rc;
+}
+
+int wdr_cal_board_store_table(wdr_cal_board *d, const uint8_t *table, size_t len)
+{
+    wdr_commit_reply reply;
+    return wdr_client_upload(d->client, WDR_KIND_CAL, table, len, NULL, NULL, &reply);
+}
