@@ -1,6 +1,6 @@
 /* Requests from the host: every packet gets exactly one response with a status, and a
  * request that fails changes nothing (SPEC.md, "Wire protocol"). */
-#include "wdr_fw.h"
+#include "fw_internal.h"
 #include <string.h>
 
 /* ---- Responses ------------------------------------------------------------------------------ */

@@ -1,5 +1,5 @@
 /* Boot and the task loop: the two entry points a program's main calls. */
-#include "wdr_fw.h"
+#include "fw_internal.h"
 #include <string.h>
 
 /* What the store must match, from the board; 0 if the firmware can drive this sensor. */

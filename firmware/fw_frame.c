@@ -1,7 +1,7 @@
 /* The frame state machine: IDLE -> RESET -> INTEGRATE (ramp playback) -> READOUT -> IDLE.
  * Timing follows from the LUT (integration time) and the board (row time); the HAL's timer
  * and ramp-done events move it on, so the task loop never spins waiting. */
-#include "wdr_fw.h"
+#include "fw_internal.h"
 #include "wdr_readout.h"
 #include <string.h>
 

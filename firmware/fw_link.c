@@ -1,6 +1,6 @@
 /* The link to the host: a queue of outgoing frames (one in flight on bulk IN at a time) and
  * the incoming byte stream cut into packets by the shared decoder. */
-#include "wdr_fw.h"
+#include "fw_internal.h"
 #include <string.h>
 
 /* ---- Outgoing ---------------------------------------------------------------------------- */

@@ -3,7 +3,7 @@
  * correction that READOUT runs on every frame. */
 #include "correct.h"
 #include "crc32.h"
-#include "wdr_fw.h"
+#include "fw_internal.h"
 #include <string.h>
 
 #define CAL_MIN_DENOM 1e-3f /* the Moebius denominator r*y + 1 must stay this far from zero */

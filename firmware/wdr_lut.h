@@ -2,6 +2,7 @@
  * The byte layout is written down in firmware/SPEC.md; all fields little-endian. */
 #ifndef WDR_LUT_H
 #define WDR_LUT_H
+#include "wdr_bytes.h"
 #include <stddef.h>
 #include <stdint.h>
 
@@ -72,13 +73,5 @@ void wdr_lut_entry(const wdr_lut_view *lut, uint32_t i, uint32_t *t_ticks, uint1
 /* Serialise header h (CRC fields are computed here) followed by entries into out,
  * which must hold wdr_lut_size(h->entry_count) bytes. t_ticks and codes have entry_count items. */
 void wdr_lut_encode(wdr_lut_header *h, const uint32_t *t_ticks, const uint16_t *codes, uint8_t *out);
-
-/* Little-endian helpers shared by the table and protocol codecs. */
-uint16_t wdr_get_u16(const uint8_t *p);
-uint32_t wdr_get_u32(const uint8_t *p);
-float wdr_get_f32(const uint8_t *p);
-void wdr_put_u16(uint8_t *p, uint16_t v);
-void wdr_put_u32(uint8_t *p, uint32_t v);
-void wdr_put_f32(uint8_t *p, float v);
 
 #endif
