@@ -4,6 +4,8 @@
 // the part and the compression.
 #include "exr_read.h"
 #include "wdr_err.h"
+#include <openexr.h>
+#include <Imath/half.h>
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -27,23 +29,17 @@ namespace {
 struct compression_info {
     Imf::Compression id;
     const char *name;
-    int lines_per_chunk; // scanline files: rows per chunk
 };
 
 const compression_info compressions[] = {
-    {Imf::NO_COMPRESSION, "none", 1},   {Imf::RLE_COMPRESSION, "rle", 1},     {Imf::ZIPS_COMPRESSION, "zips", 1},
-    {Imf::ZIP_COMPRESSION, "zip", 16},  {Imf::PIZ_COMPRESSION, "piz", 32},    {Imf::PXR24_COMPRESSION, "pxr24", 16},
-    {Imf::B44_COMPRESSION, "b44", 32},  {Imf::B44A_COMPRESSION, "b44a", 32},  {Imf::DWAA_COMPRESSION, "dwaa", 32},
-    {Imf::DWAB_COMPRESSION, "dwab", 256},
+    {Imf::NO_COMPRESSION, "none"},   {Imf::RLE_COMPRESSION, "rle"},     {Imf::ZIPS_COMPRESSION, "zips"},
+    {Imf::ZIP_COMPRESSION, "zip"},  {Imf::PIZ_COMPRESSION, "piz"},    {Imf::PXR24_COMPRESSION, "pxr24"},
+    {Imf::B44_COMPRESSION, "b44"},  {Imf::B44A_COMPRESSION, "b44a"},  {Imf::DWAA_COMPRESSION, "dwaa"},
+    {Imf::DWAB_COMPRESSION, "dwab"},
 };
 
-const compression_info *compression_by_id(Imf::Compression c)
-{
-    for (const compression_info &ci : compressions)
-        if (ci.id == c)
-            return &ci;
-    return nullptr;
-}
+static_assert(sizeof compressions / sizeof compressions[0] == EXR_COMPRESSION_LAST_TYPE,
+              "compressions[] is indexed by exr_compression_t");
 
 const compression_info *compression_by_name(const char *name)
 {
@@ -78,28 +74,46 @@ long file_size(const char *path)
     return stat(path, &st) == 0 ? (long)st.st_size : -1;
 }
 
-// A small file cannot hold a huge image: each chunk costs 8 bytes of offset table at least.
-int check_bounds(const Imf::Header &hdr, long bytes, const where &at, int w, int h)
+void quiet(exr_const_context_t, exr_result_t, const char *) {} // errors go through our message
+
+// The header as the C API parses it (no pixels): part 0's compression, data window, storage and
+// chunk count, checked against the bounds before the C++ library allocates anything.
+int probe(const char *path, where &at)
 {
-    char why[200];
-    if (w <= 0 || h <= 0 || w > WDR_EXR_MAX_SIDE || h > WDR_EXR_MAX_SIDE || (long)w * h > WDR_EXR_MAX_PIXELS) {
-        snprintf(why, sizeof why, "data window %dx%d outside the limits (sides 1..%d, at most %ld pixels)", w, h,
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = quiet;
+    exr_context_t ctx = nullptr;
+    exr_result_t rc = exr_start_read(&ctx, path, &init);
+    exr_compression_t comp;
+    exr_attr_box2i_t dw;
+    exr_storage_t storage;
+    int32_t chunks = 0;
+    char why[240];
+    at.part = 0;
+    if (!rc && !(rc = exr_get_compression(ctx, 0, &comp)))
+        at.compression = (unsigned)comp < sizeof compressions / sizeof compressions[0] ? compressions[comp].name
+                                                                                         : nullptr;
+    if (!rc)
+        rc = exr_get_data_window(ctx, 0, &dw);
+    if (!rc)
+        rc = exr_get_storage(ctx, 0, &storage);
+    if (!rc)
+        rc = exr_get_chunk_count(ctx, 0, &chunks);
+    snprintf(why, sizeof why, "header: %s", exr_get_default_error_message(rc));
+    exr_finish(&ctx);
+    if (rc)
+        return at.fail(WDR_E_INVAL, why);
+    if (storage != EXR_STORAGE_SCANLINE && storage != EXR_STORAGE_TILED)
+        return at.fail(WDR_E_UNSUPPORTED, "deep data is not supported");
+    long w = (long)dw.max.x - dw.min.x + 1, h = (long)dw.max.y - dw.min.y + 1, bytes = file_size(path);
+    if (w <= 0 || h <= 0 || w > WDR_EXR_MAX_SIDE || h > WDR_EXR_MAX_SIDE || w * h > WDR_EXR_MAX_PIXELS) {
+        snprintf(why, sizeof why, "data window %ldx%ld outside the limits (sides 1..%d, at most %ld pixels)", w, h,
                  WDR_EXR_MAX_SIDE, WDR_EXR_MAX_PIXELS);
         return at.fail(WDR_E_INVAL, why);
     }
-    long chunks;
-    if (hdr.hasTileDescription()) {
-        const Imf::TileDescription &td = hdr.tileDescription();
-        if (td.xSize == 0 || td.ySize == 0)
-            return at.fail(WDR_E_INVAL, "tile size 0");
-        chunks = ((long)w + td.xSize - 1) / td.xSize * (((long)h + td.ySize - 1) / td.ySize);
-    } else {
-        const compression_info *ci = compression_by_id(hdr.compression());
-        chunks = ((long)h + ci->lines_per_chunk - 1) / ci->lines_per_chunk;
-    }
-    if (chunks * 8 > bytes) {
-        snprintf(why, sizeof why, "data window %dx%d needs %ld chunks but the file has only %ld bytes", w, h, chunks,
-                 bytes);
+    if ((long)chunks * 8 > bytes) { /* each chunk costs 8 bytes of offset table at least */
+        snprintf(why, sizeof why, "data window %ldx%ld needs %d chunks but the file has only %ld bytes", w, h,
+                 (int)chunks, bytes);
         return at.fail(WDR_E_INVAL, why);
     }
     return WDR_OK;
@@ -142,25 +156,16 @@ void read_strip(Imf::InputPart &in, const IMATH_NAMESPACE::Box2i &dw, const char
 
 int read_part0(const char *path, where &at, float **lum, int *w, int *h)
 {
-    long bytes = file_size(path);
-    Imf::MultiPartInputFile file(path);
-    at.part = 0;
-    const Imf::Header &hdr = file.header(0);
-    const compression_info *ci = compression_by_id(hdr.compression());
-    at.compression = ci ? ci->name : nullptr;
-    if (!ci)
-        return at.fail(WDR_E_UNSUPPORTED, "unknown compression");
-    if (hdr.hasType() && (Imf::isDeepData(hdr.type())))
-        return at.fail(WDR_E_UNSUPPORTED, "deep data is not supported");
-    const IMATH_NAMESPACE::Box2i dw = hdr.dataWindow();
-    long lw = (long)dw.max.x - dw.min.x + 1, lh = (long)dw.max.y - dw.min.y + 1;
-    *w = lw > 0 && lw <= WDR_EXR_MAX_SIDE ? (int)lw : 0;
-    *h = lh > 0 && lh <= WDR_EXR_MAX_SIDE ? (int)lh : 0;
-    const char *names[3];
-    int rc = check_bounds(hdr, bytes, at, *w, *h);
-    if (!rc)
-        rc = pick_channels(hdr.channels(), at, names);
+    int rc = probe(path, at);
     if (rc)
+        return rc;
+    Imf::MultiPartInputFile file(path);
+    const Imf::Header &hdr = file.header(0);
+    const IMATH_NAMESPACE::Box2i dw = hdr.dataWindow();
+    *w = dw.max.x - dw.min.x + 1;
+    *h = dw.max.y - dw.min.y + 1;
+    const char *names[3];
+    if ((rc = pick_channels(hdr.channels(), at, names)))
         return rc;
     Imf::InputPart in(file, 0);
     const int strip = 256;
@@ -212,11 +217,18 @@ extern "C" int wdr_exr_write(const char *path, const float *y, const float *cons
         const int nch = rgb ? 3 : 1;
         for (int k = 0; k < nch; k++)
             hdr.channels().insert(rgb ? names[k] : "Y", Imf::Channel(type));
-        // The library converts our float planes to half on write when the file asks for half.
+        // Output files do not convert pixel types: half files get half planes made here.
+        const size_t n = (size_t)w * h;
+        std::vector<IMATH_NAMESPACE::half> halves(half ? n * nch : 0);
         Imf::FrameBuffer fb;
-        for (int k = 0; k < nch; k++)
-            fb.insert(rgb ? names[k] : "Y", Imf::Slice(Imf::FLOAT, (char *)(rgb ? rgb[k] : y), sizeof(float),
-                                                       (size_t)w * sizeof(float)));
+        for (int k = 0; k < nch; k++) {
+            const float *src = rgb ? rgb[k] : y;
+            for (size_t i = 0; half && i < n; i++)
+                halves[k * n + i] = src[i];
+            char *base = half ? (char *)(halves.data() + k * n) : (char *)src;
+            size_t px = half ? sizeof(IMATH_NAMESPACE::half) : sizeof(float);
+            fb.insert(rgb ? names[k] : "Y", Imf::Slice(type, base, px, (size_t)w * px));
+        }
         Imf::OutputFile out(path, hdr);
         out.setFrameBuffer(fb);
         out.writePixels(h);
