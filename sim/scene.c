@@ -490,3 +490,17 @@ int wdr_scene_apply(const wdr_scene *sc, wdr_sim *s)
     wdr_sim_set_reference(s, sc->reference);
     return wdr_sim_set_photocurrent(s, sc->amps);
 }
+
+void wdr_scene_print_range(FILE *f, const char *tool, const wdr_scene *sc, const wdr_board *b)
+{
+    if (sc->exposure_auto)
+        fprintf(f, "%s: exposure auto: %.4g A per cd/m2 (scene log-average %.4g cd/m2 onto the ramp's key %.4g A)\n",
+                tool, sc->amp_per_lum, sc->l_avg, sc->key_amp);
+    else
+        fprintf(f, "%s: exposure %.4g A per cd/m2 (scene log-average %.4g cd/m2 -> %.4g A; the ramp's key %.4g A)\n",
+                tool, sc->amp_per_lum, sc->l_avg, sc->l_avg * sc->amp_per_lum, sc->key_amp);
+    fprintf(f, "%s: %.2f %% of the pixels lie below the sensor's floor (%.3g A) and %.2f %% above its ceiling "
+               "(%.3g A)%s\n",
+            tool, 100 * sc->below_floor, b->i_min_a, 100 * sc->above_ceiling, b->i_max_a,
+            sc->below_floor + sc->above_ceiling > 0.01 ? ": they will read as black or as white" : "");
+}

@@ -5,6 +5,7 @@
 #include "board.h"
 #include "wdr_sim.h"
 #include <stdint.h>
+#include <stdio.h>
 
 typedef struct wdr_scene {
     int width, height;             /* the sensor's: a scene is always rendered at the board's size */
@@ -50,6 +51,10 @@ int wdr_scene_load(const char *path, const wdr_board *b, wdr_scene *out, char *e
 int wdr_scene_load_exposed(const char *path, const wdr_board *b, const wdr_exposure *ex, wdr_scene *out, char *err,
                            int errlen);
 void wdr_scene_free(wdr_scene *sc);
+
+/* Say, before a capture or render, the exposure used and what the sensor cannot see: the
+ * fractions of pixels below its floor (i_min_a) and above its ceiling (i_max_a). */
+void wdr_scene_print_range(FILE *f, const char *tool, const wdr_scene *sc, const wdr_board *b);
 
 /* Give a chip the scene: effects, tolerance, reference flag and photocurrents.
  * @retval WDR_OK, WDR_E_GEOMETRY (chip of another size), WDR_E_INVAL */
