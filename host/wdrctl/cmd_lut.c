@@ -218,6 +218,12 @@ static int build_lut(const lut_opts *o, const wdr_board *b, const wdr_operator *
         return wdrctl_fail(EX_SOFTWARE, "internal: built LUT does not parse (%s)", wdr_strerror(rc));
     r->worst_lsb =
         wdr_ramp_lut_worst_error_lsb(&r->px, op, &r->view, b->i_min_a, b->i_max_a, CHECK_CURRENTS, &r->worst_i);
+    /* LUT 1.1: the exposure table for the board's auto exposure, keyed on the ramp's L_avg */
+    rc = wdr_ramp_lut_append_exposure(&r->bytes, &r->len, b, op->stats.l_avg / b->lum_per_amp);
+    if (!rc)
+        rc = wdr_lut_parse(r->bytes, r->len, &r->view);
+    if (rc)
+        return wdrctl_fail(EX_SOFTWARE, "internal: exposure table: %s", wdr_strerror(rc));
     return EX_OK;
 }
 

@@ -25,6 +25,7 @@ static const wdrctl_command commands[] = {
     {"lut", "select", cmd_lut_select, "A|B|newest  play the LUT of a slot"},
     {"cal", "upload", cmd_cal_upload, "CAL.bin [--no-verify]  store a calibration table in flash and apply it"},
     {NULL, "integration", cmd_integration, "NS  integration time (0: the LUT's own)"},
+    {NULL, "exposure", cmd_exposure, "auto|fixed  the board retimes its ramp to the scene (LUT 1.1 exposure table)"},
     {NULL, "capture", cmd_capture,
      "[-n N] -o FILE.png|FILE.pfm [--bits 8|16] [--raw] [--negate] [--average]  N frames (numbered files)"},
     {NULL, "stream", cmd_stream, "[-n N] [--seconds S]  frames back to back, one line each, until Ctrl-C"},

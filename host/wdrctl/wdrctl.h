@@ -22,6 +22,7 @@ int cmd_lut_upload(int argc, char **argv);
 int cmd_lut_select(int argc, char **argv);
 int cmd_cal_upload(int argc, char **argv);
 int cmd_integration(int argc, char **argv);
+int cmd_exposure(int argc, char **argv);
 int cmd_capture(int argc, char **argv);
 int cmd_stream(int argc, char **argv);
 int cmd_sim_illuminant(int argc, char **argv);
