@@ -203,7 +203,7 @@ static void payload_records_round_trip(void **state)
     assert_string_equal(io.name, "sim-vga");
     assert_int_equal(wdr_info_unpack(buf, WDR_INFO_SIZE - 1, &io), WDR_E_TRUNCATED);
 
-    wdr_status_report s = {3, 1, 0xff, 2, 5, 6, 7, 8, 9, 10, 11, 12, 0x123456789abcull, 13, 14}, so;
+    wdr_status_report s = {3, 1, 0xff, 2, 5, 6, 7, 8, 9, 10, 11, 12, 0x123456789abcull, 13, 14, 0, 0, 0, 0, 0}, so;
     wdr_status_pack(&s, buf);
     assert_int_equal(wdr_status_unpack(buf, WDR_STATUS_SIZE, &so), WDR_OK);
     assert_true(so.time_ns == 0x123456789abcull && so.rx_bad_crc == 14 && so.cal_slot == 0xff);
