@@ -4,7 +4,8 @@
  * by frame, STATUS reports the key the firmware is exposing for; it must settle on the scene's
  * within 5 % in 8 frames after each step, the DAC tick must follow, and the mean code of the frame
  * must come back to the key's code. Then the limits: a scene far beyond the longest integration
- * stops the tick at it; a LUT without the table refuses auto. */
+ * stops the tick at it; a damaged block is refused and the LUT in use stays; a LUT without the
+ * table refuses auto. */
 #include "e2e_board.h"
 #include "ramp.h"
 #include "wdr_err.h"
@@ -122,6 +123,33 @@ static void stops_at_the_longest_integration(void **state)
     assert_true(s.error_ln < -1); /* it still sees the scene as too dark: it says so */
 }
 
+/* A damaged exposure block is refused like any table fault, and the LUT in use stays. */
+static void bad_blocks_refused(void **state)
+{
+    (void)state;
+    wdr_status_report before, after;
+    assert_int_equal(wdr_client_status(rig.c, &before), WDR_OK);
+    uint8_t *bad = malloc(lut_len + 10);
+    assert_non_null(bad);
+    memcpy(bad, lut, lut_len);
+    bad[lut_len - 20] ^= 0x40; /* inside ln_q8: the block's CRC no longer matches */
+    int rc = wdr_client_upload(rig.c, WDR_KIND_LUT, bad, lut_len, NULL, NULL, NULL);
+    printf("exposure block with a flipped bit: %s\n", wdr_status_name(rig.c->status));
+    assert_int_equal(rc, WDR_E_STATUS);
+    assert_int_equal(rig.c->status, WDR_ST_BAD_CRC);
+    memcpy(bad, lut, lut_len);
+    memset(bad + lut_len, 0, 10); /* ten bytes more than a block: not a 1.1 table */
+    rc = wdr_client_upload(rig.c, WDR_KIND_LUT, bad, lut_len + 10, NULL, NULL, NULL);
+    printf("exposure block and 10 bytes more: %s\n", wdr_status_name(rig.c->status));
+    assert_int_equal(rc, WDR_E_STATUS);
+    assert_int_equal(rig.c->status, WDR_ST_BAD_TABLE);
+    assert_int_equal(wdr_client_status(rig.c, &after), WDR_OK);
+    assert_int_equal(after.lut_crc, before.lut_crc);
+    assert_int_equal(after.lut_slot, before.lut_slot);
+    assert_int_equal(after.exposure_auto, 1);
+    free(bad);
+}
+
 static void refused_without_table(void **state)
 {
     (void)state;
@@ -148,6 +176,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(converges_on_100x_steps),
         cmocka_unit_test(stops_at_the_longest_integration),
+        cmocka_unit_test(bad_blocks_refused),
         cmocka_unit_test(refused_without_table),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
