@@ -199,6 +199,18 @@ static void cmd_set_integration(wdr_fw *fw, const wdr_packet *pkt)
     reply_status(fw, pkt, st);
 }
 
+static void cmd_set_exposure(wdr_fw *fw, const wdr_packet *pkt)
+{
+    int st = pkt->h.length == 1 ? WDR_ST_OK : WDR_ST_BAD_LENGTH;
+    if (!st && wdr_fw_busy(fw))
+        st = WDR_ST_BUSY;
+    if (!st) {
+        int err = wdr_fw_set_exposure(fw, pkt->payload[0]);
+        st = err == WDR_E_INVAL ? WDR_ST_BAD_ARG : wdr_status_from_err(err);
+    }
+    reply_status(fw, pkt, st);
+}
+
 static void cmd_capture(wdr_fw *fw, const wdr_packet *pkt)
 {
     int st = pkt->h.length == 4 ? WDR_ST_OK : WDR_ST_BAD_LENGTH;
@@ -273,6 +285,7 @@ static cmd_fn handler_for(uint8_t opcode)
     case WDR_CMD_LUT_COMMIT: case WDR_CMD_CAL_COMMIT: return cmd_commit;
     case WDR_CMD_LUT_SELECT: return cmd_lut_select;
     case WDR_CMD_SET_INTEGRATION: return cmd_set_integration;
+    case WDR_CMD_SET_EXPOSURE: return cmd_set_exposure;
     case WDR_CMD_CAPTURE: return cmd_capture;
     case WDR_CMD_STREAM: return cmd_stream;
     case WDR_CMD_ABORT: return cmd_abort;

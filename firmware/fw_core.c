@@ -72,9 +72,14 @@ void wdr_fw_status(const wdr_fw *fw, wdr_status_report *r)
     r->cal_crc = fw->cal_slot < 0 ? 0 : fw->store.slot[1][fw->cal_slot].crc;
     r->upload_received = fw->store.up_received;
     r->frames = fw->frame_no;
-    r->integration_ns = fw->integration_ns;
+    r->integration_ns = fw->expo_auto ? 0 : fw->integration_ns;
+    r->tick_ps = fw->expo_auto ? fw->expo_tick_ps : fw->lut_slot >= 0 ? fw->lut.h.tick_ps : 0;
     if (!r->integration_ns && fw->lut_slot >= 0)
-        r->integration_ns = (uint32_t)((uint64_t)fw->lut.h.t_integration_ticks * fw->lut.h.tick_ps / 1000u);
+        r->integration_ns = (uint32_t)((uint64_t)fw->lut.h.t_integration_ticks * r->tick_ps / 1000u);
+    r->exposure_auto = fw->expo_auto;
+    r->exposure_flags = fw->expo_has_table;
+    r->key_gain_q8 = fw->expo_gain_q8;
+    r->last_error_q8 = fw->expo_last_q8;
     r->frame_time_ns = fw->frame_time_ns;
     r->time_ns = hal_time_ns();
     r->rx_skipped = fw->dec.skipped;

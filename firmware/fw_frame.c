@@ -43,11 +43,15 @@ int wdr_fw_set_integration(wdr_fw *fw, uint32_t ns)
     return WDR_OK;
 }
 
+/* Auto exposure retimes the whole ramp, integration included (the override is for fixed exposure). */
 static void prepare_play(wdr_fw *fw)
 {
     fw->play = fw->lut;
-    if (fw->integration_ns)
+    if (fw->expo_auto)
+        fw->play.h.tick_ps = fw->expo_tick_ps;
+    else if (fw->integration_ns)
         fw->play.h.t_integration_ticks = ns_to_ticks(&fw->lut, fw->integration_ns);
+    wdr_fw_expo_frame_start(fw);
 }
 
 /* ---- Start and stop ------------------------------------------------------------------------- */
@@ -121,6 +125,8 @@ static int step_row(wdr_fw *fw)
         fw->frame_end_due = true; /* FRAME_END reports the rows that made it */
         return 1;
     }
+    wdr_fw_expo_row(fw, (const uint16_t *)(void *)(frame + WDR_PROTO_HEADER_SIZE + WDR_PROTO_ROW_HEADER),
+                    fw->board.width); /* the corrected codes, as readout wrote them (LE targets) */
     wdr_fw_tx_commit_raw(fw, len);
     fw->row++;
     fw->row_deadline += fw->board.row_time_ns;
@@ -138,6 +144,7 @@ static int step_frame_end(wdr_fw *fw)
     wdr_proto_header h = {WDR_CMD_FRAME_END, WDR_FLAG_EVENT, fw->capture_seq, 0, 0, 0};
     wdr_fw_tx_commit(fw, &h, WDR_FRAME_END_SIZE);
     fw->frame_no++;
+    wdr_fw_expo_frame_end(fw, complete);
     fw->frame_time_ns = (uint32_t)(hal_time_ns() - fw->t_start) + WDR_FW_RESET_NS;
     fw->frame_end_due = false;
     if (!fw->streaming && fw->frames_left)

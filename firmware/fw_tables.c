@@ -36,8 +36,15 @@ static int lut_check(wdr_fw *fw, uint32_t addr, uint32_t len)
     err = wdr_lut_parse(p, len, &fw->staged_lut);
     if (err)
         return err;
-    if (len != wdr_lut_size(fw->staged_lut.h.entry_count))
+    /* LUT 1.1: the exposure block, if any, follows the entries and nothing else does */
+    size_t entries_end = wdr_lut_size(fw->staged_lut.h.entry_count);
+    fw->staged_has_expo = len == entries_end + WDR_LUT_EXPO_SIZE;
+    if (fw->staged_has_expo)
+        err = wdr_lut_exposure_parse(p + entries_end, WDR_LUT_EXPO_SIZE, &fw->staged_expo);
+    else if (len != entries_end)
         return WDR_E_INVAL;
+    if (err)
+        return err;
     return fw->staged_lut.h.dac_bits == fw->board.dac_bits ? WDR_OK : WDR_E_GEOMETRY;
 }
 
@@ -188,6 +195,9 @@ void wdr_fw_table_activate(wdr_fw *fw, int kind, int slot)
         fw->lut_buf ^= 1;
         fw->lut_slot = slot;
         fw->integration_ns = 0; /* an override was checked against the old ramp */
+        fw->expo = fw->staged_expo;
+        fw->expo_has_table = fw->staged_has_expo;
+        wdr_fw_expo_reset(fw);
     } else {
         fw->cal = fw->staged_cal;
         fw->cal_slot = slot;

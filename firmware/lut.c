@@ -117,3 +117,32 @@ int wdr_lut_parse(const void *buf, size_t len, wdr_lut_view *out)
         return WDR_E_CORRUPT;
     return entries_check(out);
 }
+
+/* ---- Exposure block (SPEC.md, LUT 1.1) ---- */
+
+int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out)
+{
+    const uint8_t *p = buf;
+    if (len < WDR_LUT_EXPO_SIZE)
+        return WDR_E_TRUNCATED;
+    if (wdr_get_u32(p) != WDR_LUT_EXPO_MAGIC ||
+        wdr_get_u32(p + WDR_LUT_EXPO_SIZE - 4u) != wdr_crc32(0, p, WDR_LUT_EXPO_SIZE - 4u))
+        return WDR_E_CORRUPT;
+    if (wdr_get_u16(p + 4) != WDR_LUT_EXPO_BINS || p[6] > 10u)
+        return WDR_E_INVAL;
+    out->code_shift = p[6];
+    for (uint32_t b = 0; b < WDR_LUT_EXPO_BINS; b++)
+        out->ln_q8[b] = (int16_t)wdr_get_u16(p + 8 + 2 * b);
+    return WDR_OK;
+}
+
+void wdr_lut_exposure_encode(const wdr_lut_exposure *in, uint8_t *out)
+{
+    wdr_put_u32(out, WDR_LUT_EXPO_MAGIC);
+    wdr_put_u16(out + 4, WDR_LUT_EXPO_BINS);
+    out[6] = in->code_shift;
+    out[7] = 0;
+    for (uint32_t b = 0; b < WDR_LUT_EXPO_BINS; b++)
+        wdr_put_u16(out + 8 + 2 * b, (uint16_t)in->ln_q8[b]);
+    wdr_put_u32(out + WDR_LUT_EXPO_SIZE - 4u, wdr_crc32(0, out, WDR_LUT_EXPO_SIZE - 4u));
+}

@@ -245,11 +245,17 @@ void wdr_status_pack(const wdr_status_report *in, uint8_t *out)
     put_u64(out + 36, in->time_ns);
     wdr_put_u32(out + 44, in->rx_skipped);
     wdr_put_u32(out + 48, in->rx_bad_crc);
+    out[52] = in->exposure_auto;
+    out[53] = in->exposure_flags;
+    wdr_put_u16(out + 54, 0);
+    wdr_put_u32(out + 56, (uint32_t)in->key_gain_q8);
+    wdr_put_u32(out + 60, in->tick_ps);
+    wdr_put_u32(out + 64, (uint32_t)in->last_error_q8);
 }
 
 int wdr_status_unpack(const uint8_t *p, size_t len, wdr_status_report *out)
 {
-    if (len < WDR_STATUS_SIZE)
+    if (len < WDR_STATUS_SIZE_1_0)
         return WDR_E_TRUNCATED;
     out->state = p[0];
     out->lut_slot = p[1];
@@ -266,6 +272,12 @@ int wdr_status_unpack(const uint8_t *p, size_t len, wdr_status_report *out)
     out->time_ns = get_u64(p + 36);
     out->rx_skipped = wdr_get_u32(p + 44);
     out->rx_bad_crc = wdr_get_u32(p + 48);
+    int v11 = len >= WDR_STATUS_SIZE;
+    out->exposure_auto = v11 ? p[52] : 0;
+    out->exposure_flags = v11 ? p[53] : 0;
+    out->key_gain_q8 = v11 ? (int32_t)wdr_get_u32(p + 56) : 0;
+    out->tick_ps = v11 ? wdr_get_u32(p + 60) : 0;
+    out->last_error_q8 = v11 ? (int32_t)wdr_get_u32(p + 64) : 0;
     return WDR_OK;
 }
 

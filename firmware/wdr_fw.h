@@ -72,6 +72,17 @@ typedef struct wdr_fw {
     uint32_t last_response_len;   /* 0: nothing to resend */
     uint16_t last_seq;
     uint8_t last_opcode;
+
+    /* Auto exposure (fw_expo.c): the ramp's tick follows the scene's log-average */
+    wdr_lut_exposure expo, staged_expo; /* the active LUT's exposure table, and the staged one's */
+    bool expo_has_table, staged_has_expo;
+    bool expo_auto;               /* SET_EXPOSURE 1 */
+    int32_t expo_gain_q8;         /* ln(own tick / tick in force) * 256: the scene against the LUT's key */
+    int32_t expo_last_q8;         /* last frame's measured ln(L_avg / key) * 256, at the tick then in force */
+    uint32_t expo_tick_ps;        /* tick the next frame plays */
+    uint32_t expo_min_step_ticks; /* shortest DAC step of the active LUT, in its ticks */
+    int32_t expo_frame_sum;       /* sum of row means of the frame being read */
+    uint16_t expo_rows;
 } wdr_fw;
 
 /* Start from whatever flash holds: read the board, check every stored table, activate the
@@ -94,5 +105,13 @@ void wdr_fw_status(const wdr_fw *fw, wdr_status_report *out);
 /* Handle one decoded request as if it had arrived on the link (tests drive the firmware
  * packet by packet with it; the link calls it for every packet). */
 void wdr_fw_handle(wdr_fw *fw, const wdr_packet *pkt);
+
+/* Auto exposure (fw_expo.c). mode 0: the LUT's own tick; 1: auto.
+ * @retval WDR_OK  @retval WDR_E_INVAL mode  @retval WDR_E_NO_TABLE  @retval WDR_E_UNSUPPORTED no exposure table */
+int wdr_fw_set_exposure(wdr_fw *fw, uint8_t mode);
+void wdr_fw_expo_reset(wdr_fw *fw);
+void wdr_fw_expo_frame_start(wdr_fw *fw);
+void wdr_fw_expo_row(wdr_fw *fw, const uint16_t *codes, uint16_t width);
+void wdr_fw_expo_frame_end(wdr_fw *fw, bool complete);
 
 #endif

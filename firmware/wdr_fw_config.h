@@ -11,7 +11,7 @@
 #include "wdr_proto.h"
 
 #define WDR_FW_VERSION_MAJOR 1
-#define WDR_FW_VERSION_MINOR 0
+#define WDR_FW_VERSION_MINOR 1 /* 1.1: auto exposure */
 
 #ifndef WDR_FW_LUT_MAX_ENTRIES
 #define WDR_FW_LUT_MAX_ENTRIES 8192u /* a 12-bit stamped ramp has at most 4096 */
@@ -34,6 +34,15 @@
 #endif
 #ifndef WDR_FW_RX_CHUNK
 #define WDR_FW_RX_CHUNK 512u         /* bytes taken from the OUT endpoint at a time */
+#endif
+#ifndef WDR_FW_DAC_MIN_UPDATE_PS
+#define WDR_FW_DAC_MIN_UPDATE_PS 1000u /* auto exposure: no DAC step shorter (1 GHz, the simulated DAC timer) */
+#endif
+#ifndef WDR_FW_MAX_INTEGRATION_NS
+#define WDR_FW_MAX_INTEGRATION_NS 200000000u /* auto exposure: the longest integration the board allows */
+#endif
+#ifndef WDR_FW_EXPO_DAMP_SHIFT
+#define WDR_FW_EXPO_DAMP_SHIFT 1     /* auto exposure corrects 1/2^shift of the measured error per frame */
 #endif
 #ifndef WDR_FW_RESET_NS
 #define WDR_FW_RESET_NS 2000u        /* reset pulse: settles N1 through M1 */

@@ -8,7 +8,7 @@
 
 #define WDR_LUT_MAGIC 0x54554c57u /* "WLUT" */
 #define WDR_LUT_VERSION_MAJOR 1
-#define WDR_LUT_VERSION_MINOR 0
+#define WDR_LUT_VERSION_MINOR 1 /* 1.1: an optional exposure block may follow the entries */
 #define WDR_LUT_HEADER_SIZE 64u
 #define WDR_LUT_ENTRY_SIZE 8u
 #define WDR_LUT_MAX_ENTRIES 65536u
@@ -73,5 +73,29 @@ void wdr_lut_entry(const wdr_lut_view *lut, uint32_t i, uint32_t *t_ticks, uint1
 /* Serialise header h (CRC fields are computed here) followed by entries into out,
  * which must hold wdr_lut_size(h->entry_count) bytes. t_ticks and codes have entry_count items. */
 void wdr_lut_encode(wdr_lut_header *h, const uint32_t *t_ticks, const uint16_t *codes, uint8_t *out);
+
+/* ---- Exposure block (LUT 1.1, optional, right after the entries) ----------------------------
+ * What a corrected output code says about the light: for bin b (codes b << code_shift up to the
+ * next bin), ln(I / I_key) * 256 of the current whose nominal-pixel code is b << code_shift
+ * (codes between two bins interpolate linearly; the last bin and above are flat),
+ * with the ramp at its own tick; I_key is the log-average current the ramp was built for. The
+ * firmware averages it over a frame (the log-average of the scene against the key) and retimes
+ * the next frame's ramp: a scene m times brighter wants the tick divided by m. */
+#define WDR_LUT_EXPO_MAGIC 0x58454c57u /* "WLEX" */
+#define WDR_LUT_EXPO_BINS 64u
+#define WDR_LUT_EXPO_SIZE (8u + 2u * WDR_LUT_EXPO_BINS + 4u)
+
+typedef struct wdr_lut_exposure {
+    uint8_t code_shift;                   /* bin = code >> code_shift, below WDR_LUT_EXPO_BINS */
+    int16_t ln_q8[WDR_LUT_EXPO_BINS];     /* ln(I / I_key) in 1/256 */
+} wdr_lut_exposure;
+
+/* Check and read the exposure block at buf (the bytes after a LUT's entries).
+ * @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_LUT_EXPO_SIZE  @retval WDR_E_CORRUPT magic or CRC
+ * @retval WDR_E_INVAL bins other than WDR_LUT_EXPO_BINS, or code_shift above 10 */
+int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out);
+
+/* Write the block (WDR_LUT_EXPO_SIZE bytes, CRC computed here). */
+void wdr_lut_exposure_encode(const wdr_lut_exposure *in, uint8_t *out);
 
 #endif

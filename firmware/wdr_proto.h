@@ -12,7 +12,7 @@
 #include <stdint.h>
 
 #define WDR_PROTO_VERSION_MAJOR 1
-#define WDR_PROTO_VERSION_MINOR 0
+#define WDR_PROTO_VERSION_MINOR 1 /* 1.1: SET_EXPOSURE, exposure fields in STATUS */
 
 #define WDR_PROTO_SYNC0 0x57u /* 'W' */
 #define WDR_PROTO_SYNC1 0x44u /* 'D' */
@@ -39,6 +39,7 @@ enum wdr_cmd {
     WDR_CMD_CAPTURE = 0x31,         /* N frames, streamed as ROW and FRAME_END packets */
     WDR_CMD_STREAM = 0x32,          /* 1: capture frames until 0 */
     WDR_CMD_ABORT = 0x33,           /* stop a capture or stream, drop an upload */
+    WDR_CMD_SET_EXPOSURE = 0x34,    /* u8 0: the LUT's own tick, 1: auto exposure */
     WDR_CMD_SIM_SET_ILLUMINANT = 0x70, /* simulation only: uniform photocurrent */
     WDR_CMD_ROW = 0x40,             /* board -> host, unsolicited: one corrected row */
     WDR_CMD_FRAME_END = 0x41        /* board -> host, unsolicited: a frame is complete */
@@ -130,7 +131,8 @@ int wdr_status_from_err(int err);
 #define WDR_CHUNK_OFFSET_SIZE 4u /* offset u32, then 1..WDR_PROTO_CHUNK_DATA_MAX table bytes */
 #define WDR_COMMIT_REPLY_SIZE 12u
 #define WDR_INFO_SIZE 68u
-#define WDR_STATUS_SIZE 52u
+#define WDR_STATUS_SIZE 68u
+#define WDR_STATUS_SIZE_1_0 52u /* what a 1.0 board sends: the exposure fields read as 0 */
 #define WDR_FRAME_END_SIZE 20u
 #define WDR_SLOT_NEWEST 0xffu    /* LUT_SELECT: the newest valid slot */
 #define WDR_SLOT_NONE 0xffu      /* STATUS: no valid table of that kind */
@@ -163,6 +165,12 @@ typedef struct wdr_status_report {
     uint64_t time_ns;           /* board clock */
     uint32_t rx_skipped;        /* garbage bytes dropped by the decoder */
     uint32_t rx_bad_crc;        /* frames dropped for a bad payload CRC */
+    /* 1.1: exposure */
+    uint8_t exposure_auto;      /* 1: auto exposure on */
+    uint8_t exposure_flags;     /* bit 0: the active LUT has an exposure table */
+    int32_t key_gain_q8;        /* ln(scene log-average / LUT's key) * 256 in force: the tick is the LUT's / e^(gain/256) */
+    uint32_t tick_ps;           /* DAC tick in force */
+    int32_t last_error_q8;      /* last frame's measured ln(L_avg / key) * 256, before the correction */
 } wdr_status_report;
 
 typedef struct wdr_commit_reply {
@@ -183,7 +191,7 @@ void wdr_info_pack(const wdr_info *in, uint8_t *out);
 /* @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_INFO_SIZE */
 int wdr_info_unpack(const uint8_t *p, size_t len, wdr_info *out);
 void wdr_status_pack(const wdr_status_report *in, uint8_t *out);
-/* @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_STATUS_SIZE */
+/* @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_STATUS_SIZE_1_0 (a 1.0 report: exposure fields 0) */
 int wdr_status_unpack(const uint8_t *p, size_t len, wdr_status_report *out);
 void wdr_commit_pack(const wdr_commit_reply *in, uint8_t *out);
 /* @retval WDR_OK  @retval WDR_E_TRUNCATED */

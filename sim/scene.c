@@ -3,6 +3,7 @@
 #include "wdr_scene.h"
 #include "file_io.h"
 #include "hdr_image.h"
+#include "resample.h"
 #include "wdr_err.h"
 #include <cJSON.h>
 #include <math.h>
@@ -15,6 +16,7 @@ typedef struct scene_ctx {
     const char *path;
     const wdr_board *board;
     wdr_scene *sc;
+    const wdr_exposure *exposure; /* the caller's override, or NULL: the scene's own */
     float *lum; /* luminance map at the sensor's size */
     char *err;
     int errlen;
@@ -202,60 +204,33 @@ static void image_path(const char *scene_path, const char *name, char *out, size
         snprintf(out, len, "%.*s/%s", (int)(slash - scene_path), scene_path, name);
 }
 
-static float bilinear(const float *img, int w, int h, double x, double y)
+static void add_warning(wdr_scene *sc, const char *text)
 {
-    x = fmin(fmax(x, 0), w - 1);
-    y = fmin(fmax(y, 0), h - 1);
-    int x0 = (int)x, y0 = (int)y, x1 = x0 + 1 < w ? x0 + 1 : x0, y1 = y0 + 1 < h ? y0 + 1 : y0;
-    double fx = x - x0, fy = y - y0;
-    double top = img[(long)y0 * w + x0] * (1 - fx) + img[(long)y0 * w + x1] * fx;
-    double bot = img[(long)y1 * w + x0] * (1 - fx) + img[(long)y1 * w + x1] * fx;
-    return (float)(top * (1 - fy) + bot * fy);
-}
-
-static void resample(const float *img, int iw, int ih, float *out, int w, int h)
-{
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) /* pixel centres map onto pixel centres */
-            out[(long)y * w + x] = bilinear(img, iw, ih, (x + 0.5) * iw / w - 0.5, (y + 0.5) * ih / h - 0.5);
-}
-
-/* NaN and Inf are errors; negatives (lossy files have small ones) are clamped to 0 and counted. */
-static int check_pixels(scene_ctx *c, const char *file, float *img, int w, int h)
-{
-    long negatives = 0;
-    for (long i = 0; i < (long)w * h; i++) {
-        if (!isfinite(img[i]))
-            return fail(c, WDR_E_INVAL, "illumination.image", "%s: pixel (%ld, %ld) is %g: not a finite luminance",
-                        file, i % w, i / w, img[i]);
-        if (img[i] < 0) {
-            negatives++;
-            img[i] = 0;
-        }
-    }
-    if (negatives)
-        snprintf(c->sc->warning, sizeof c->sc->warning, "%.180s: %ld negative pixels clamped to 0", file, negatives);
-    return WDR_OK;
+    size_t used = strlen(sc->warning);
+    snprintf(sc->warning + used, sizeof sc->warning - used, "%s%s", used ? "; " : "", text);
 }
 
 static int fit_image(scene_ctx *c, const cJSON *ill, const char *file, const float *img, int iw, int ih)
 {
-    const char *fit = get_string(ill, "fit");
-    if (cJSON_GetObjectItemCaseSensitive(ill, "fit") && (!fit || (strcmp(fit, "exact") && strcmp(fit, "resample"))))
-        return fail(c, WDR_E_INVAL, "illumination.fit", "must be \"exact\" or \"resample\"");
+    const char *name = get_string(ill, "fit");
+    int fit = name ? wdr_fit_from_name(name) : WDR_FIT_EXACT;
+    if (cJSON_GetObjectItemCaseSensitive(ill, "fit") && (!name || fit < 0))
+        return fail(c, WDR_E_INVAL, "illumination.fit",
+                    "must be \"exact\", \"crop\" (or its old name \"resample\"), \"letterbox\" or \"stretch\"");
     int w = c->sc->width, h = c->sc->height;
-    if (iw == w && ih == h) {
-        memcpy(c->lum, img, (size_t)w * h * sizeof *img);
-        return WDR_OK;
-    }
-    if (!fit || strcmp(fit, "resample"))
+    char what[300];
+    int rc = wdr_resample_fit(img, iw, ih, c->lum, w, h, (wdr_fit)fit, what, sizeof what);
+    if (rc == WDR_E_GEOMETRY)
         return fail(c, WDR_E_GEOMETRY, "illumination.image",
-                    "%s is %dx%d but the sensor is %dx%d (set \"fit\": \"resample\" to resample it)", file, iw, ih,
-                    w, h);
-    resample(img, iw, ih, c->lum, w, h);
-    size_t used = strlen(c->sc->warning);
-    snprintf(c->sc->warning + used, sizeof c->sc->warning - used, "%s%s resampled from %dx%d to %dx%d",
-             used ? "; " : "", file, iw, ih, w, h);
+                    "%s is %dx%d but the sensor is %dx%d (set \"fit\": \"crop\", \"letterbox\" or \"stretch\")",
+                    file, iw, ih, w, h);
+    if (rc)
+        return rc;
+    if (iw != w || ih != h) {
+        char line[512];
+        snprintf(line, sizeof line, "%.180s %s", file, what);
+        add_warning(c->sc, line);
+    }
     return WDR_OK;
 }
 
@@ -268,12 +243,17 @@ static int load_image(scene_ctx *c, const cJSON *ill, const char *name)
         return rc;
     image_path(c->path, name, file, sizeof file);
     float *img;
-    rc = wdr_hdr_load(file, &img, &iw, &ih, err, sizeof err);
+    long negatives;
+    rc = wdr_hdr_load_checked(file, &img, &iw, &ih, &negatives, err, sizeof err);
     if (rc)
         return fail(c, rc, "illumination.image", "%s", err);
-    rc = check_pixels(c, file, img, iw, ih);
-    if (!rc)
-        rc = fit_image(c, ill, file, img, iw, ih);
+    if (negatives) {
+        char line[300];
+        snprintf(line, sizeof line, "%.180s: %ld negative pixels clamped to 0", file, negatives);
+        add_warning(c->sc, line);
+    }
+    rc = fit_image(c, ill, file, img, iw, ih);
+    c->sc->from_image = 1;
     free(img);
     snprintf(c->sc->illumination, sizeof c->sc->illumination, "image %s", name);
     return rc;
@@ -345,15 +325,69 @@ static int load_flags(scene_ctx *c, const cJSON *root)
     return rc ? rc : get_seed(c, root, "frame_seed", &c->sc->frame_seed);
 }
 
-static int to_amps(scene_ctx *c, const cJSON *root)
+/* Log-average luminance with the guard of the statistics (values at or below 1e-9 of the maximum
+ * count as that floor), so auto exposure and the operators agree on the key. */
+static double log_average(const float *lum, long n)
+{
+    double lmax = 0, sum = 0;
+    for (long i = 0; i < n; i++)
+        lmax = lum[i] > lmax ? lum[i] : lmax;
+    if (!(lmax > 0))
+        return 0;
+    for (long i = 0; i < n; i++)
+        sum += log(lum[i] > lmax * 1e-9 ? lum[i] : lmax * 1e-9);
+    return exp(sum / (double)n);
+}
+
+/* A per cd/m2: the caller's override, else the scene's "exposure" ("auto" or a factor on lum_to_amp). */
+static int choose_scale(scene_ctx *c, const cJSON *root, double *k)
 {
     wdr_scene *sc = c->sc;
+    const cJSON *ex = cJSON_GetObjectItemCaseSensitive(root, "exposure");
     int rc = get_number(c, root, "lum_to_amp", "lum_to_amp", 1e-30, 1, 1.0 / c->board->lum_per_amp, &sc->lum_to_amp);
-    if (!rc)
+    sc->exposure = 1.0;
+    int scene_auto = cJSON_IsString(ex) && !strcmp(ex->valuestring, "auto");
+    if (!rc && cJSON_IsString(ex) && !scene_auto)
+        return fail(c, WDR_E_INVAL, "exposure", "'%s' must be \"auto\" or a number", ex->valuestring);
+    if (!rc && !scene_auto)
         rc = get_number(c, root, "exposure", "exposure", 1e-12, 1e12, 1.0, &sc->exposure);
     if (rc)
         return rc;
-    double k = sc->lum_to_amp * sc->exposure;
+    int mode = c->exposure && c->exposure->mode != WDR_EXPOSURE_SCENE ? c->exposure->mode
+               : scene_auto                                           ? WDR_EXPOSURE_AUTO
+                                                                      : WDR_EXPOSURE_SCENE;
+    sc->key_amp = 0.18 * c->board->i_center_a; /* the key of the board's default ramps */
+    if (mode == WDR_EXPOSURE_AUTO && !(sc->l_avg > 0))
+        return fail(c, WDR_E_INVAL, "exposure", "auto: the scene has no positive luminance to expose for");
+    *k = mode == WDR_EXPOSURE_AUTO    ? sc->key_amp / sc->l_avg
+         : mode == WDR_EXPOSURE_FIXED ? c->exposure->amp_per_lum
+                                      : sc->lum_to_amp * sc->exposure;
+    sc->exposure_auto = mode == WDR_EXPOSURE_AUTO;
+    return WDR_OK;
+}
+
+/* What the sensor cannot see: pixels below the board's floor (they all read as black) and above
+ * its ceiling (they all read as the brightest code). */
+static void floor_and_ceiling(wdr_scene *sc, const wdr_board *b)
+{
+    long n = (long)sc->width * sc->height, below = 0, above = 0;
+    for (long i = 0; i < n; i++) {
+        below += sc->amps[i] < b->i_min_a;
+        above += sc->amps[i] > b->i_max_a;
+    }
+    sc->below_floor = (double)below / (double)n;
+    sc->above_ceiling = (double)above / (double)n;
+}
+
+static int to_amps(scene_ctx *c, const cJSON *root)
+{
+    wdr_scene *sc = c->sc;
+    sc->l_avg = log_average(c->lum, (long)sc->width * sc->height);
+    double k = 0;
+    int rc = choose_scale(c, root, &k);
+    if (rc)
+        return rc;
+    sc->amp_per_lum = k;
     sc->i_min = INFINITY;
     sc->i_max = 0;
     for (long i = 0; i < (long)sc->width * sc->height; i++) {
@@ -362,8 +396,9 @@ static int to_amps(scene_ctx *c, const cJSON *root)
         sc->i_max = fmax(sc->i_max, sc->amps[i]);
     }
     if (!(sc->i_max <= 1e-3))
-        return fail(c, WDR_E_INVAL, "exposure", "photocurrents reach %g A: lum_to_amp * exposure = %g is far too "
-                    "large", sc->i_max, k);
+        return fail(c, WDR_E_INVAL, "exposure", "photocurrents reach %g A: %g A per cd/m2 is far too large",
+                    sc->i_max, k);
+    floor_and_ceiling(sc, c->board);
     return WDR_OK;
 }
 
@@ -389,11 +424,32 @@ static int load_root(scene_ctx *c, const cJSON *root)
 
 int wdr_scene_load(const char *path, const wdr_board *b, wdr_scene *out, char *err, int errlen)
 {
+    return wdr_scene_load_exposed(path, b, NULL, out, err, errlen);
+}
+
+int wdr_exposure_parse(const char *text, wdr_exposure *out)
+{
+    char *end;
+    if (!strcmp(text, "auto")) {
+        *out = (wdr_exposure){WDR_EXPOSURE_AUTO, 0};
+        return WDR_OK;
+    }
+    double v = strtod(text, &end);
+    if (end == text || *end || !isfinite(v) || !(v > 0) || v > 1)
+        return WDR_E_INVAL;
+    *out = (wdr_exposure){WDR_EXPOSURE_FIXED, v};
+    return WDR_OK;
+}
+
+int wdr_scene_load_exposed(const char *path, const wdr_board *b, const wdr_exposure *ex, wdr_scene *out, char *err,
+                           int errlen)
+{
     memset(out, 0, sizeof *out);
     out->width = b->width;
     out->height = b->height;
     out->chip_seed = out->frame_seed = 1;
-    scene_ctx c = {path, b, out, NULL, err, errlen};
+    scene_ctx c = {path, b, out, ex, NULL, err, errlen};
+
     char *text = wdr_read_text(path);
     if (!text) {
         snprintf(err, (size_t)errlen, "%s: cannot read scene file", path);
@@ -433,4 +489,18 @@ int wdr_scene_apply(const wdr_scene *sc, wdr_sim *s)
     wdr_sim_set_auto_tolerance(s, sc->tolerance_lsb);
     wdr_sim_set_reference(s, sc->reference);
     return wdr_sim_set_photocurrent(s, sc->amps);
+}
+
+void wdr_scene_print_range(FILE *f, const char *tool, const wdr_scene *sc, const wdr_board *b)
+{
+    if (sc->exposure_auto)
+        fprintf(f, "%s: exposure auto: %.4g A per cd/m2 (scene log-average %.4g cd/m2 onto the ramp's key %.4g A)\n",
+                tool, sc->amp_per_lum, sc->l_avg, sc->key_amp);
+    else
+        fprintf(f, "%s: exposure %.4g A per cd/m2 (scene log-average %.4g cd/m2 -> %.4g A; the ramp's key %.4g A)\n",
+                tool, sc->amp_per_lum, sc->l_avg, sc->l_avg * sc->amp_per_lum, sc->key_amp);
+    fprintf(f, "%s: %.2f %% of the pixels lie below the sensor's floor (%.3g A) and %.2f %% above its ceiling "
+               "(%.3g A)%s\n",
+            tool, 100 * sc->below_floor, b->i_min_a, 100 * sc->above_ceiling, b->i_max_a,
+            sc->below_floor + sc->above_ceiling > 0.01 ? ": they will read as black or as white" : "");
 }

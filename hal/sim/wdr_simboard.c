@@ -26,11 +26,14 @@ typedef struct simboard_opts {
     const char *board, *scene, *socket, *flash;
     uint64_t seed;
     int seed_given, once;
+    wdr_exposure exposure;       /* --exposure: how the scene is placed in the sensor's range */
 } simboard_opts;
 
 static void usage(FILE *f)
 {
     fprintf(f, "usage: wdr-simboard --board FILE --scene FILE [--socket PATH] [--flash FILE] [--seed N] [--once]\n"
+               "                    [--exposure auto|A_per_cd/m2]\n"
+               "  --exposure X   auto: the scene's log-average onto the ramp's key; or a scale in A per cd/m2\n"
                "  --socket PATH  where wdrctl connects (default wdr-simboard.sock); wdrctl --device sim:PATH\n"
                "  --flash FILE   keep the table flash in FILE between runs (default: RAM, lost on exit)\n"
                "  --seed N       chip seed: fixed-pattern draw (default: the scene's chip_seed)\n"
@@ -56,6 +59,7 @@ static int parse_args(int argc, char **argv, simboard_opts *o)
         {"board", required_argument, NULL, 'b'}, {"scene", required_argument, NULL, 'S'},
         {"socket", required_argument, NULL, 's'}, {"flash", required_argument, NULL, 'f'},
         {"seed", required_argument, NULL, 'e'},  {"once", no_argument, NULL, 'o'},
+        {"exposure", required_argument, NULL, 'x'},
         {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0}};
     *o = (simboard_opts){.socket = "wdr-simboard.sock", .seed = 1};
     int c;
@@ -66,6 +70,12 @@ static int parse_args(int argc, char **argv, simboard_opts *o)
         case 's': o->socket = optarg; break;
         case 'f': o->flash = optarg; break;
         case 'o': o->once = 1; break;
+        case 'x':
+            if (wdr_exposure_parse(optarg, &o->exposure)) {
+                fprintf(stderr, "wdr-simboard: --exposure must be auto or A per cd/m2 in (0, 1], got '%s'\n", optarg);
+                return EX_USAGE;
+            }
+            break;
         case 'e':
             if (parse_seed(optarg, &o->seed) != EX_OK)
                 return EX_USAGE;
@@ -108,13 +118,14 @@ static int start_board(const simboard_opts *o, wdr_board *b)
     wdr_board_defaults(b); /* a board file overrides only what it names */
     int rc = wdr_board_load(o->board, b, err, sizeof err);
     if (rc == WDR_OK)
-        rc = wdr_scene_load(o->scene, b, &scene, err, sizeof err);
+        rc = wdr_scene_load_exposed(o->scene, b, &o->exposure, &scene, err, sizeof err);
     if (rc != WDR_OK) {
         fprintf(stderr, "wdr-simboard: %s\n", err);
         return exit_for(rc);
     }
     if (scene.warning[0])
         fprintf(stderr, "wdr-simboard: %s: %s\n", o->scene, scene.warning);
+    wdr_scene_print_range(stderr, "wdr-simboard", &scene, b);
     hal_sim_config cfg = {.board = b, .seed = o->seed_given ? o->seed : scene.chip_seed,
                           .frame_seed = scene.frame_seed, .socket_path = o->socket, .flash_path = o->flash};
     rc = hal_sim_setup(&cfg, err, sizeof err);

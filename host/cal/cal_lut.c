@@ -60,7 +60,9 @@ int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double
     *margin_done_v = extra * (lut.h.dac_hi_v - lut.h.dac_lo_v) / ((1u << lut.h.dac_bits) - 1u);
     uint32_t *t = malloc(sizeof(uint32_t) * (n + extra));
     uint16_t *c = malloc(sizeof(uint16_t) * (n + extra));
-    *out_len = wdr_lut_size(n + extra);
+    /* LUT 1.1: an exposure block travels with the ramp (the margin only adds codes past the floor) */
+    size_t expo = in_len == wdr_lut_size(n) + WDR_LUT_EXPO_SIZE ? WDR_LUT_EXPO_SIZE : 0;
+    *out_len = wdr_lut_size(n + extra) + expo;
     *out = malloc(*out_len);
     if (!t || !c || !*out) {
         free(t), free(c), free(*out);
@@ -78,6 +80,8 @@ int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double
     uint32_t t_end = t[n + extra - 1] + (uint32_t)ceil(step) + 1;
     h.t_integration_ticks = t_end > lut.h.t_integration_ticks ? t_end : lut.h.t_integration_ticks;
     wdr_lut_encode(&h, t, c, *out);
+    if (expo)
+        memcpy(*out + wdr_lut_size(n + extra), in + wdr_lut_size(n), expo);
     *added_s = (double)(h.t_integration_ticks - lut.h.t_integration_ticks) * lut.h.tick_ps * 1e-12;
     free(t);
     free(c);

@@ -63,6 +63,15 @@ double wdr_ramp_lut_ideal_response(const wdr_ideal_pixel *px, const wdr_lut_view
 double wdr_ramp_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operator *op, const wdr_lut_view *lut,
                                double i_min, double i_max, int n, double *worst_i);
 
+/* The exposure table of a LUT (LUT 1.1): per bin of corrected codes, ln(I / key_amp) * 256 of the
+ * current whose ideal code is the bin's first code; key_amp is the log-average current the ramp was
+ * built for (L_avg / lum_per_A). */
+void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out);
+
+/* Append that table to the LUT in *bytes (realloc'd; *len grows by WDR_LUT_EXPO_SIZE).
+ * @retval WDR_OK, the wdr_lut_parse errors, WDR_E_NOMEM */
+int wdr_ramp_lut_append_exposure(uint8_t **bytes, size_t *len, const wdr_board *b, double key_amp);
+
 /* Build a LUT for board b from operator op_name with default parameters and the board's
  * photocurrent range and DAC timing (as `wdrctl lut build`). *bytes is malloc'd (free()).
  * ramp, if not NULL, receives the continuous ramp (wdr_ramp_free it), for wdr_sim_set_ramp.

@@ -326,6 +326,9 @@ static void print_status_text(const wdr_status_report *s)
     printf("frames:        %u\nintegration:   %u ns\nframe time:    %u ns\nboard time:    %llu ns\n", s->frames,
            s->integration_ns, s->frame_time_ns, (unsigned long long)s->time_ns);
     printf("rx skipped:    %u bytes\nrx bad CRC:    %u frames\n", s->rx_skipped, s->rx_bad_crc);
+    printf("exposure:      %s%s, key x%.4g (gain %+.3f ln), tick %u ps, last error %+.3f ln\n",
+           s->exposure_auto ? "auto" : "fixed", s->exposure_flags & 1 ? "" : " (LUT without exposure table)",
+           exp(s->key_gain_q8 / 256.0), s->key_gain_q8 / 256.0, s->tick_ps, s->last_error_q8 / 256.0);
 }
 
 static void add_slot(cJSON *o, const char *name, uint8_t slot, uint32_t seq, uint32_t crc)
@@ -352,6 +355,11 @@ static void print_status_json(const wdr_status_report *s)
     cJSON_AddNumberToObject(o, "board_time_ns", (double)s->time_ns);
     cJSON_AddNumberToObject(o, "rx_skipped", s->rx_skipped);
     cJSON_AddNumberToObject(o, "rx_bad_crc", s->rx_bad_crc);
+    cJSON_AddStringToObject(o, "exposure", s->exposure_auto ? "auto" : "fixed");
+    cJSON_AddBoolToObject(o, "exposure_table", s->exposure_flags & 1);
+    cJSON_AddNumberToObject(o, "key_scale", exp(s->key_gain_q8 / 256.0));
+    cJSON_AddNumberToObject(o, "tick_ps", s->tick_ps);
+    cJSON_AddNumberToObject(o, "last_error_ln", s->last_error_q8 / 256.0);
     char *text = cJSON_Print(o);
     printf("%s\n", text ? text : "{}");
     free(text);
@@ -491,6 +499,18 @@ int cmd_integration(int argc, char **argv)
     uint8_t p[4];
     wdr_put_u32(p, (uint32_t)ns);
     return simple_request(&o, WDR_CMD_SET_INTEGRATION, p, 4, "integration time set");
+}
+
+int cmd_exposure(int argc, char **argv)
+{
+    dev_opts o;
+    int rc = parse_opts(argc, argv, "exposure", 0, 1, 1, &o);
+    if (rc != EX_OK)
+        return rc;
+    uint8_t mode = !strcmp(o.args[0], "auto") ? 1 : 0;
+    if (!mode && strcmp(o.args[0], "fixed"))
+        return wdrctl_fail(EX_USAGE, "exposure: must be auto or fixed, got '%s'", o.args[0]);
+    return simple_request(&o, WDR_CMD_SET_EXPOSURE, &mode, 1, mode ? "auto exposure on" : "exposure fixed");
 }
 
 int cmd_sim_illuminant(int argc, char **argv)

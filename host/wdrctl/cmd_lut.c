@@ -6,6 +6,7 @@
 #include "plot.h"
 #include "ramp.h"
 #include "wdr_err.h"
+#include "wdr_scene.h"
 #include "wdrctl.h"
 #include <cJSON.h>
 #include <getopt.h>
@@ -19,7 +20,8 @@
 #define CHECK_CURRENTS 2001
 
 typedef struct lut_opts {
-    const char *op_name, *board, *out, *csv, *plot, *curve, *scene_image;
+    const char *op_name, *board, *out, *csv, *plot, *curve, *scene_image, *scene;
+    wdr_exposure exposure;
     const char *params[16];
     int n_params, json, repair, timing, entries, dac_bits;
     double l_avg, l_max, l_min;
@@ -90,6 +92,11 @@ static int parse_lut_option(int c, lut_opts *o)
     case 'P': o->plot = optarg; break;
     case 'u': o->curve = optarg; break;
     case 'S': o->scene_image = optarg; break;
+    case 'C': o->scene = optarg; break;
+    case 'X':
+        if (wdr_exposure_parse(optarg, &o->exposure))
+            return wdrctl_fail(EX_USAGE, "option --exposure: '%s' must be auto or A per cd/m2 in (0, 1]", optarg);
+        break;
     case 'j': o->json = 1; break;
     case 'r': o->repair = 1; break;
     case 't': rc = parse_timing(optarg, &o->timing); break;
@@ -120,7 +127,8 @@ static int parse_lut_opts(int argc, char **argv, lut_opts *o)
         {"entries", required_argument, 0, 'e'},  {"dac-bits", required_argument, 0, 'd'},
         {"curve", required_argument, 0, 'u'},    {"l-avg", required_argument, 0, 'A'},
         {"l-max", required_argument, 0, 'M'},    {"l-min", required_argument, 0, 'N'},
-        {"scene-image", required_argument, 0, 'S'},
+        {"scene-image", required_argument, 0, 'S'}, {"scene", required_argument, 0, 'C'},
+        {"exposure", required_argument, 0, 'X'},
         {0, 0, 0, 0}};
     memset(o, 0, sizeof *o);
     o->timing = -1;
@@ -157,9 +165,12 @@ int wdrctl_stats_from_image(const char *path, wdr_lum_stats *st)
     float *lum;
     if (access(path, R_OK) != 0)
         return wdrctl_fail(EX_NOINPUT, "%s: cannot read scene image", path);
-    int w, h, rc = wdr_hdr_load(path, &lum, &w, &h, err, sizeof err);
+    long negatives;
+    int w, h, rc = wdr_hdr_load_checked(path, &lum, &w, &h, &negatives, err, sizeof err);
     if (rc)
         return wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_DATAERR, "%s", err);
+    if (negatives)
+        fprintf(stderr, "wdrctl: warning: %s: %ld negative pixels clamped to 0\n", path, negatives);
     rc = wdr_lum_stats_measure(lum, (long)w * h, st);
     free(lum);
     if (rc < 0)
@@ -169,12 +180,45 @@ int wdrctl_stats_from_image(const char *path, wdr_lum_stats *st)
     return EX_OK;
 }
 
+int wdrctl_stats_from_scene(const wdr_scene *sc, const wdr_board *b, wdr_lum_stats *st)
+{
+    long n = (long)sc->width * sc->height;
+    float *lum = malloc(sizeof *lum * (size_t)n);
+    if (!lum)
+        return wdrctl_fail(EX_OSERR, "out of memory");
+    for (long i = 0; i < n; i++)
+        lum[i] = (float)(sc->amps[i] * b->lum_per_amp);
+    int rc = wdr_lum_stats_measure(lum, n, st);
+    free(lum);
+    if (rc < 0)
+        return wdrctl_fail(EX_DATAERR, "scene %s: no positive luminance to take statistics from", sc->illumination);
+    fprintf(stderr, "wdrctl: scene statistics (%s, as the sensor sees it): L_avg %.4g, L_max %.4g, L_min %.4g cd/m2\n",
+            sc->illumination, st->l_avg, st->l_max, st->l_min);
+    return EX_OK;
+}
+
+/* --scene FILE: statistics of the scene as the sensor sees it, if it names an image. */
+static int stats_from_scene_file(const lut_opts *o, const wdr_board *b, wdr_lum_stats *st)
+{
+    char err[1024];
+    wdr_scene sc;
+    int rc = wdr_scene_load_exposed(o->scene, b, &o->exposure, &sc, err, sizeof err);
+    if (rc)
+        return wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_DATAERR, "%s", err);
+    wdr_scene_print_range(stderr, "wdrctl", &sc, b);
+    rc = sc.from_image ? wdrctl_stats_from_scene(&sc, b, st) : EX_OK;
+    wdr_scene_free(&sc);
+    return rc;
+}
+
 static int setup_operator(const lut_opts *o, const wdr_board *b, wdr_operator *op)
 {
     char err[512];
     wdr_lum_stats st;
     wdr_lum_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
-    int ex = o->scene_image ? wdrctl_stats_from_image(o->scene_image, &st) : EX_OK;
+    int ex = o->scene_image ? wdrctl_stats_from_image(o->scene_image, &st)
+             : o->scene     ? stats_from_scene_file(o, b, &st)
+                            : EX_OK;
     if (ex != EX_OK)
         return ex;
     st.l_avg = isnan(o->l_avg) ? st.l_avg : o->l_avg;
@@ -218,6 +262,12 @@ static int build_lut(const lut_opts *o, const wdr_board *b, const wdr_operator *
         return wdrctl_fail(EX_SOFTWARE, "internal: built LUT does not parse (%s)", wdr_strerror(rc));
     r->worst_lsb =
         wdr_ramp_lut_worst_error_lsb(&r->px, op, &r->view, b->i_min_a, b->i_max_a, CHECK_CURRENTS, &r->worst_i);
+    /* LUT 1.1: the exposure table for the board's auto exposure, keyed on the ramp's L_avg */
+    rc = wdr_ramp_lut_append_exposure(&r->bytes, &r->len, b, op->stats.l_avg / b->lum_per_amp);
+    if (!rc)
+        rc = wdr_lut_parse(r->bytes, r->len, &r->view);
+    if (rc)
+        return wdrctl_fail(EX_SOFTWARE, "internal: exposure table: %s", wdr_strerror(rc));
     return EX_OK;
 }
 

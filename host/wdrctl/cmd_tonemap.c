@@ -16,6 +16,8 @@ typedef struct tonemap_opts {
     const char *board, *scene, *op_name, *capture, *out, *side, *scene_image;
     const char *params[16];
     int n_params;
+    const char *exposure_text;
+    wdr_exposure exposure;
 } tonemap_opts;
 
 static int parse_tonemap(int argc, char **argv, tonemap_opts *o)
@@ -31,6 +33,7 @@ static int parse_tonemap(int argc, char **argv, tonemap_opts *o)
                             : !strcmp(a, "-o")           ? &o->out
                             : !strcmp(a, "--side-by-side") ? &o->side
                             : !strcmp(a, "--scene-image") ? &o->scene_image
+                            : !strcmp(a, "--exposure")   ? &o->exposure_text
                             : !strcmp(a, "--param") && o->n_params < 16 ? &o->params[o->n_params++]
                                                                         : NULL;
         if (!slot || !v)
@@ -38,6 +41,8 @@ static int parse_tonemap(int argc, char **argv, tonemap_opts *o)
         *slot = v;
         i++;
     }
+    if (o->exposure_text && wdr_exposure_parse(o->exposure_text, &o->exposure))
+        return wdrctl_fail(EX_USAGE, "tonemap: --exposure '%s' must be auto or A per cd/m2 in (0, 1]", o->exposure_text);
     if (!o->scene || !o->out)
         return wdrctl_fail(EX_USAGE, "tonemap needs --scene FILE and -o OUT.png");
     return EX_OK;
@@ -50,10 +55,19 @@ static int load_inputs(const tonemap_opts *o, wdr_board *b, wdr_scene *sc, wdr_o
     wdr_board_path(o->board ? o->board : WDR_DEFAULT_BOARD, path, sizeof path);
     int rc = wdr_board_load(path, b, err, sizeof err);
     if (!rc)
-        rc = wdr_scene_load(o->scene, b, sc, err, sizeof err);
+        rc = wdr_scene_load_exposed(o->scene, b, &o->exposure, sc, err, sizeof err);
+    if (!rc)
+        wdr_scene_print_range(stderr, "wdrctl", sc, b);
+    /* The operator sees the scene as the sensor does (amps * lum_per_A): statistics from the
+     * scene's own image unless --scene-image names another, which is then scaled the same way. */
     wdr_lum_stats st;
     wdr_lum_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
-    if (!rc && o->scene_image && wdrctl_stats_from_image(o->scene_image, &st) != EX_OK)
+    if (!rc && o->scene_image) {
+        if (wdrctl_stats_from_image(o->scene_image, &st) != EX_OK)
+            return EX_DATAERR;
+        double k = sc->amp_per_lum * b->lum_per_amp;
+        st.l_avg *= k, st.l_max *= k, st.l_min *= k;
+    } else if (!rc && sc->from_image && wdrctl_stats_from_scene(sc, b, &st) != EX_OK)
         return EX_DATAERR;
     if (!rc)
         rc = wdr_operator_init(op, o->op_name, &st, err, sizeof err);

@@ -11,10 +11,11 @@ static const wdrctl_command commands[] = {
     {"lut", "build", cmd_lut_build,
      "--operator NAME [--param key=value]... [--board FILE] -o LUT.bin [--csv FILE] [--plot FILE.png] [--json]\n"
      "            [--repair] [--timing uniform|stamped] [--entries N] [--dac-bits N] [--curve FILE.csv]\n"
-     "            [--l-avg X] [--l-max X] [--l-min X] [--scene-image HDR]"},
+     "            [--l-avg X] [--l-max X] [--l-min X] [--scene-image HDR | --scene FILE [--exposure auto|A]]"},
     {"lut", "plots", cmd_lut_plots, "[--board FILE] [--outdir DIR]  V_ref(t) and response of every operator"},
     {NULL, "tonemap", cmd_tonemap,
-     "--scene FILE [--board B] [--operator NAME] [--param k=v]... [--scene-image HDR] -o SOFT.png\n"
+     "--scene FILE [--board B] [--operator NAME] [--param k=v]... [--scene-image HDR] [--exposure auto|A]\n"
+     "            -o SOFT.png"
      "            [--capture CAP.pfm --side-by-side OUT.png]"},
     /* Board commands take [--device sim:/path.sock|usb[:BUS-ADDR]] (default $WDR_DEVICE),
      * [--timeout MS] [--retries N] [--wait MS] (wait for a board that is starting). */
@@ -25,6 +26,7 @@ static const wdrctl_command commands[] = {
     {"lut", "select", cmd_lut_select, "A|B|newest  play the LUT of a slot"},
     {"cal", "upload", cmd_cal_upload, "CAL.bin [--no-verify]  store a calibration table in flash and apply it"},
     {NULL, "integration", cmd_integration, "NS  integration time (0: the LUT's own)"},
+    {NULL, "exposure", cmd_exposure, "auto|fixed  the board retimes its ramp to the scene (LUT 1.1 exposure table)"},
     {NULL, "capture", cmd_capture,
      "[-n N] -o FILE.png|FILE.pfm [--bits 8|16] [--raw] [--negate] [--average]  N frames (numbered files)"},
     {NULL, "stream", cmd_stream, "[-n N] [--seconds S]  frames back to back, one line each, until Ctrl-C"},

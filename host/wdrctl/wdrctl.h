@@ -22,6 +22,7 @@ int cmd_lut_upload(int argc, char **argv);
 int cmd_lut_select(int argc, char **argv);
 int cmd_cal_upload(int argc, char **argv);
 int cmd_integration(int argc, char **argv);
+int cmd_exposure(int argc, char **argv);
 int cmd_capture(int argc, char **argv);
 int cmd_stream(int argc, char **argv);
 int cmd_sim_illuminant(int argc, char **argv);
@@ -30,9 +31,16 @@ int cmd_sim_illuminant(int argc, char **argv);
 int cmd_calibrate(int argc, char **argv);
 int cmd_fpn_report(int argc, char **argv);
 
-/* Scene statistics of an HDR image (wdr_lum_stats in operators.h); a sysexits code. */
+/* Scene statistics of an HDR image (wdr_lum_stats in operators.h); a sysexits code. The image
+ * goes through the one pixel policy (wdr_hdr_sanitize): NaN/Inf refused, negatives clamped. */
 struct wdr_lum_stats;
 int wdrctl_stats_from_image(const char *path, struct wdr_lum_stats *st);
+
+/* Scene statistics as the sensor sees the scene: its photocurrent map (fitted, exposed) times
+ * the board's lum_per_A, the luminance every operator and the software tone map work in. */
+struct wdr_scene;
+struct wdr_board;
+int wdrctl_stats_from_scene(const struct wdr_scene *sc, const struct wdr_board *b, struct wdr_lum_stats *st);
 
 /* Print "wdrctl: " and a formatted message to stderr; returns code. */
 int wdrctl_fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));

@@ -1,6 +1,7 @@
 /* wdrsim: render raw frames of a scene through a LUT on a board, without the firmware.
- * Writes PFM (codes as floats) or a 16-bit PNG, each with a JSON sidecar of the parameters and
- * the effect report; --json prints the report. Exit codes follow sysexits. */
+ * Writes PFM (codes as floats) or a 16-bit PNG; the report (parameters, exposure, floor and
+ * ceiling fractions, effects) goes where --json says: stdout, or --json=FILE. No output may be
+ * an input. Exit codes follow sysexits. */
 #include "image_io.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
@@ -13,13 +14,15 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sysexits.h>
 #include <time.h>
 #include <unistd.h>
 
 typedef struct options {
-    const char *board, *scene, *lut, *operator_name, *out;
+    const char *board, *scene, *lut, *operator_name, *out, *json_path;
     int json, threads, unquantised;
+    wdr_exposure exposure;
     int have_seed, have_chip_seed;
     uint64_t seed, chip_seed;
     int n_effects;
@@ -42,7 +45,8 @@ static int fail(int code, const char *fmt, ...)
 static void usage(FILE *f)
 {
     fprintf(f, "usage: wdrsim --board FILE --scene FILE (--lut LUT.bin | --operator NAME) [-o out.pfm|out.png]\n"
-               "              [--json] [--seed N] [--chip-seed N] [--threads N] [--unquantised]\n"
+               "              [--json | --json=REPORT.json] [--exposure auto|A_per_cd/m2]\n"
+               "              [--seed N] [--chip-seed N] [--threads N] [--unquantised]\n"
                "              [--effect name=on|off|auto]...\n"
                "effects: mismatch dark shot ktc read dac_quant adc_quant leakage clipping\n");
 }
@@ -72,6 +76,8 @@ static int parse_flag(options *o, int argc, char **argv, int *i)
     const char *a = argv[*i], *v = NULL;
     if (!strcmp(a, "--json"))
         return o->json = 1, EX_OK;
+    if (!strncmp(a, "--json=", 7) && a[7])
+        return o->json = 1, o->json_path = a + 7, EX_OK;
     if (!strcmp(a, "--unquantised"))
         return o->unquantised = 1, EX_OK;
     if (take_value(argc, argv, i, &v))
@@ -82,7 +88,10 @@ static int parse_flag(options *o, int argc, char **argv, int *i)
     else if (!strcmp(a, "--lut")) o->lut = v;
     else if (!strcmp(a, "--operator")) o->operator_name = v;
     else if (!strcmp(a, "-o")) o->out = v;
-    else if (!strcmp(a, "--seed")) return o->have_seed = 1, parse_u64(a, v, &o->seed);
+    else if (!strcmp(a, "--exposure")) {
+        if (wdr_exposure_parse(v, &o->exposure))
+            return fail(EX_USAGE, "--exposure: '%s' must be auto or a scale in A per cd/m2 in (0, 1]", v);
+    } else if (!strcmp(a, "--seed")) return o->have_seed = 1, parse_u64(a, v, &o->seed);
     else if (!strcmp(a, "--chip-seed")) return o->have_chip_seed = 1, parse_u64(a, v, &o->chip_seed);
     else if (!strcmp(a, "--threads")) {
         if (parse_u64(a, v, &n) || n > 64)
@@ -131,10 +140,10 @@ static int apply_effect(wdr_sim *s, const char *spec)
 
 /* ---- inputs ---- */
 
-static int load_board(const char *name, wdr_board *b)
+static int load_board(const char *name, wdr_board *b, char *path, int pathlen)
 {
-    char path[1024], err[512];
-    wdr_board_path(name, path, sizeof path);
+    char err[512];
+    wdr_board_path(name, path, pathlen);
     wdr_board_defaults(b);
     int rc = wdr_board_load(path, b, err, sizeof err);
     return rc ? fail(rc == WDR_E_IO ? EX_NOINPUT : EX_CONFIG, "%s", err) : EX_OK;
@@ -182,6 +191,11 @@ static cJSON *report_json(const options *o, const wdr_board *b, const wdr_scene 
     cJSON_AddNumberToObject(root, "adc_bits", b->adc_bits);
     cJSON_AddNumberToObject(root, "chip_seed", (double)chip_seed);
     cJSON_AddNumberToObject(root, "frame_seed", (double)frame_seed);
+    cJSON_AddStringToObject(root, "exposure", sc->exposure_auto ? "auto" : "fixed");
+    cJSON_AddNumberToObject(root, "amp_per_cd_m2", sc->amp_per_lum);
+    cJSON_AddNumberToObject(root, "scene_log_average_cd_m2", sc->l_avg);
+    cJSON_AddNumberToObject(root, "fraction_below_floor", sc->below_floor);
+    cJSON_AddNumberToObject(root, "fraction_above_ceiling", sc->above_ceiling);
     cJSON_AddNumberToObject(root, "photocurrent_min_A", sc->i_min);
     cJSON_AddNumberToObject(root, "photocurrent_max_A", sc->i_max);
     cJSON_AddNumberToObject(root, "integration_s", wdr_sim_integration_time(s));
@@ -206,21 +220,43 @@ static int ends_with(const char *s, const char *tail)
     return n >= m && !strcmp(s + n - m, tail);
 }
 
-static int write_sidecar(const char *out, const cJSON *report)
+/* An output must never replace an input (a scene, LUT or board file of the same name). */
+static int same_file(const char *a, const char *b)
 {
-    char path[1100];
-    const char *dot = strrchr(out, '.');
-    snprintf(path, sizeof path, "%.*s.json", dot ? (int)(dot - out) : (int)strlen(out), out);
+    struct stat sa, sb;
+    return a && b && stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
+static int check_outputs(const options *o, const char *board_path)
+{
+    const char *outs[2] = {o->out, o->json_path}, *ins[3] = {o->scene, o->lut, board_path};
+    for (int i = 0; i < 2; i++)
+        for (int k = 0; k < 3; k++)
+            if (same_file(outs[i], ins[k]))
+                return fail(EX_CANTCREAT, "%s: refusing to overwrite an input (%s)", outs[i],
+                            k == 0 ? "the scene" : k == 1 ? "the LUT" : "the board");
+    if (o->out && o->json_path && !strcmp(o->out, o->json_path))
+        return fail(EX_USAGE, "-o and --json name the same file %s", o->out);
+    return EX_OK;
+}
+
+static int write_report(const char *path, const cJSON *report)
+{
     char *text = cJSON_Print(report);
+    if (!path) {
+        puts(text ? text : "{}");
+        free(text);
+        return EX_OK;
+    }
     FILE *f = fopen(path, "w");
     int ok = f && text && fputs(text, f) >= 0 && fputc('\n', f) != EOF;
     if (f && fclose(f))
         ok = 0;
     free(text);
-    return ok ? EX_OK : fail(EX_CANTCREAT, "%s: cannot write the JSON sidecar", path);
+    return ok ? EX_OK : fail(EX_CANTCREAT, "%s: cannot write the report", path);
 }
 
-/* PNG: codes shifted to fill 16 bits (the sidecar's adc_bits undoes it); PFM: codes as floats. */
+/* PNG: codes shifted to fill 16 bits (the report's adc_bits undoes it); PFM: codes as floats. */
 static int write_image(const char *out, const wdr_board *b, const float *codes)
 {
     char err[512];
@@ -303,13 +339,10 @@ static int run(const options *o, const wdr_board *b, wdr_scene *sc, const wdr_lu
     if (!rc)
         rc = render(s, o, frame_seed, codes, &seconds);
     cJSON *report = rc ? NULL : report_json(o, b, sc, s, seconds, chip_seed, frame_seed);
-    if (!rc && o->out && !(rc = write_image(o->out, b, codes)))
-        rc = write_sidecar(o->out, report);
-    if (!rc && o->json) {
-        char *text = cJSON_Print(report);
-        puts(text ? text : "{}");
-        free(text);
-    }
+    if (!rc && o->out)
+        rc = write_image(o->out, b, codes);
+    if (!rc && o->json)
+        rc = write_report(o->json_path, report);
     cJSON_Delete(report);
     wdr_sim_destroy(s);
     free(codes);
@@ -325,17 +358,20 @@ int main(int argc, char **argv)
     wdr_scene sc;
     wdr_lut_view lut;
     uint8_t *bytes = NULL;
-    char err[1024];
+    char err[1024], board_path[1024];
     int rc = parse_args(&o, argc, argv);
     if (!rc)
-        rc = load_board(o.board, &b);
+        rc = load_board(o.board, &b, board_path, sizeof board_path);
+    if (!rc)
+        rc = check_outputs(&o, board_path);
     if (!rc)
         rc = load_lut(&o, &b, &bytes, &lut);
-    if (!rc && (rc = wdr_scene_load(o.scene, &b, &sc, err, sizeof err)))
+    if (!rc && (rc = wdr_scene_load_exposed(o.scene, &b, &o.exposure, &sc, err, sizeof err)))
         rc = fail(rc == WDR_E_IO ? EX_NOINPUT : rc == WDR_E_NOMEM ? EX_OSERR : EX_DATAERR, "%s", err);
     else if (!rc) {
         if (sc.warning[0])
             fprintf(stderr, "wdrsim: warning: %s\n", sc.warning);
+        wdr_scene_print_range(stderr, "wdrsim", &sc, &b);
         rc = run(&o, &b, &sc, &lut);
         wdr_scene_free(&sc);
     }

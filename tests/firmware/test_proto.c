@@ -203,11 +203,19 @@ static void payload_records_round_trip(void **state)
     assert_string_equal(io.name, "sim-vga");
     assert_int_equal(wdr_info_unpack(buf, WDR_INFO_SIZE - 1, &io), WDR_E_TRUNCATED);
 
-    wdr_status_report s = {3, 1, 0xff, 2, 5, 6, 7, 8, 9, 10, 11, 12, 0x123456789abcull, 13, 14}, so;
+    wdr_status_report s = {3, 1, 0xff, 2, 5, 6, 7, 8, 9, 10, 11, 12, 0x123456789abcull, 13, 14, 0, 0, 0, 0, 0}, so;
     wdr_status_pack(&s, buf);
     assert_int_equal(wdr_status_unpack(buf, WDR_STATUS_SIZE, &so), WDR_OK);
     assert_true(so.time_ns == 0x123456789abcull && so.rx_bad_crc == 14 && so.cal_slot == 0xff);
     assert_int_equal(wdr_status_unpack(buf, 10, &so), WDR_E_TRUNCATED);
+    /* 1.1: the exposure fields travel; a 1.0 board's 52 bytes read them as 0 */
+    s.exposure_auto = 1, s.exposure_flags = 1, s.key_gain_q8 = -1179, s.tick_ps = 100000, s.last_error_q8 = 37;
+    wdr_status_pack(&s, buf);
+    assert_int_equal(wdr_status_unpack(buf, WDR_STATUS_SIZE, &so), WDR_OK);
+    assert_true(so.exposure_auto == 1 && so.exposure_flags == 1 && so.key_gain_q8 == -1179 && so.tick_ps == 100000 &&
+                so.last_error_q8 == 37);
+    assert_int_equal(wdr_status_unpack(buf, WDR_STATUS_SIZE_1_0, &so), WDR_OK);
+    assert_true(so.exposure_auto == 0 && so.key_gain_q8 == 0 && so.tick_ps == 0 && so.rx_bad_crc == 14);
 
     wdr_frame_end fe = {42, 480, 1, 1500000, 99999999999ull}, fo;
     wdr_frame_end_pack(&fe, buf);

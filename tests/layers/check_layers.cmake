@@ -29,7 +29,7 @@ if(NOT SOURCE_DIR)
 endif()
 file(GLOB_RECURSE sources RELATIVE ${SOURCE_DIR}
      ${SOURCE_DIR}/firmware/*.[ch] ${SOURCE_DIR}/hal/*.[ch] ${SOURCE_DIR}/sim/*.[ch] ${SOURCE_DIR}/host/*.[ch]
-     ${SOURCE_DIR}/host/*.cpp)
+     ${SOURCE_DIR}/host/*.cpp ${SOURCE_DIR}/sim/*.cpp)
 
 # Where each header lives: basename -> folder.
 foreach(f ${sources})

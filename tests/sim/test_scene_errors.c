@@ -49,7 +49,7 @@ static const bad_case cases[] = {
     {"{ \"illumination\": { \"pattern\": \"uniform\" }, \"chip_seed\": 1.5 }", WDR_E_INVAL, "chip_seed", "1.5"},
     {"{ \"illumination\": { \"pattern\": \"uniform\" }, \"reference\": \"yes\" }", WDR_E_INVAL, "reference",
      "true or false"},
-    {"{ \"illumination\": { \"image\": \"big.pfm\", \"fit\": \"stretch\" } }", WDR_E_INVAL, "illumination.fit",
+    {"{ \"illumination\": { \"image\": \"big.pfm\", \"fit\": \"squash\" } }", WDR_E_INVAL, "illumination.fit",
      "resample"},
     {"{ \"format\": \"wdrcam-board\", \"illumination\": { \"pattern\": \"uniform\" } }", WDR_E_INVAL, "format",
      "wdrcam-board"},
