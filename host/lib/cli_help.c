@@ -148,15 +148,13 @@ static void man_rows(FILE *f, const cli_option *rows)
     }
 }
 
-static void man_command(FILE *f, const cli_program *p, const cli_command *cmd, int subsection)
+static void man_command(FILE *f, const cli_program *p, const cli_command *cmd)
 {
     char syn[1024];
     synopsis(p, cmd, syn, sizeof syn);
-    if (subsection) {
-        fputs(".SS \"", f);
-        roff(f, cmd->name);
-        fputs("\"\n", f);
-    }
+    fputs(".SS \"", f);
+    roff(f, cmd->name);
+    fputs("\"\n", f);
     fputs(".B ", f);
     roff(f, syn);
     fputs("\n.PP\n", f);
@@ -182,7 +180,12 @@ static void man_header(FILE *f, const cli_program *p)
     roff(f, p->name);
     fputs(" \\- ", f);
     roff(f, p->summary);
-    fputs("\n.SH DESCRIPTION\n", f);
+    fputc('\n', f);
+}
+
+static void man_description(FILE *f, const cli_program *p)
+{
+    fputs(".SH DESCRIPTION\n", f);
     roff(f, p->description ? p->description : p->summary);
     fputc('\n', f);
 }
@@ -191,16 +194,23 @@ void cli_print_man(FILE *f, const cli_program *p)
 {
     man_header(f, p);
     if (!p->commands) {
-        fputs(".SH SYNOPSIS\n", f);
-        man_command(f, p, p->single, 0);
+        char syn[1024];
+        synopsis(p, p->single, syn, sizeof syn);
+        fputs(".SH SYNOPSIS\n.B ", f);
+        roff(f, syn);
+        fputc('\n', f);
+        man_description(f, p);
+        fputs(".SH OPTIONS\n", f);
+        man_rows(f, p->single->options);
     } else {
         fprintf(f, ".SH SYNOPSIS\n.B %s\n[\\fIglobal options\\fR] \\fICOMMAND\\fR [\\fIoptions\\fR] [\\fIARGS\\fR]\n",
                 p->name);
+        man_description(f, p);
         fputs(".SH GLOBAL OPTIONS\nAccepted before or after any command that talks to a board.\n", f);
         man_rows(f, p->globals);
         fputs(".SH COMMANDS\n", f);
         for (const cli_command *const *c = p->commands; *c; c++)
-            man_command(f, p, *c, 1);
+            man_command(f, p, *c);
     }
     fputs(".SH \"COMMON OPTIONS\"\n.TP\n.B \\-h, \\-\\-help\nthe options of the program or command\n"
           ".TP\n.B \\-\\-version\nthe version, with the wire protocol and table format versions it speaks\n", f);

@@ -50,8 +50,10 @@ int cli_number_long(const char *text, long long lo, long long hi, long long *out
 
 int cli_number_u64(const char *text, uint64_t lo, uint64_t hi, uint64_t *out)
 {
-    if (!starts_clean(text) || !integer_syntax(text) || *text == '-')
+    if (!starts_clean(text) || !integer_syntax(text))
         return CLI_NUM_NOT_INTEGER;
+    if (*text == '-')
+        return CLI_NUM_NEGATIVE;
     errno = 0;
     unsigned long long v = strtoull(text + (*text == '+'), NULL, base_of(text));
     if (errno == ERANGE || v < lo || v > hi)
@@ -80,6 +82,8 @@ void cli_number_message(int error, const char *what, const char *text, double lo
 {
     if (error == CLI_NUM_NOT_INTEGER)
         snprintf(msg, cap, "%s: '%s' is not an integer", what, text);
+    else if (error == CLI_NUM_NEGATIVE)
+        snprintf(msg, cap, "%s: '%s' is negative, a non-negative integer is needed", what, text);
     else if (error == CLI_NUM_NOT_NUMBER)
         snprintf(msg, cap, "%s: '%s' is not a finite number", what, text);
     else if (integer && hi >= 18446744073709551615.0)

@@ -13,12 +13,13 @@ enum cli_number_error {
     CLI_NUM_NOT_INTEGER = -1, /* not digits (or has a fraction, an exponent, junk) */
     CLI_NUM_NOT_NUMBER = -2,  /* not a finite number */
     CLI_NUM_RANGE = -3,       /* a number, outside [lo, hi] */
+    CLI_NUM_NEGATIVE = -4,    /* a sign where only non-negative integers go */
 };
 
 /* text as a signed integer in [lo, hi]. @retval CLI_NUM_NOT_INTEGER, CLI_NUM_RANGE */
 int cli_number_long(const char *text, long long lo, long long hi, long long *out);
 /* text as an unsigned integer in [lo, hi]; a leading '-' is refused, never wrapped.
- * @retval CLI_NUM_NOT_INTEGER, CLI_NUM_RANGE */
+ * @retval CLI_NUM_NOT_INTEGER, CLI_NUM_NEGATIVE, CLI_NUM_RANGE */
 int cli_number_u64(const char *text, uint64_t lo, uint64_t hi, uint64_t *out);
 /* text as a finite double in [lo, hi]. @retval CLI_NUM_NOT_NUMBER, CLI_NUM_RANGE */
 int cli_number_double(const char *text, double lo, double hi, double *out);
