@@ -207,6 +207,8 @@ static int check_required(const cli_program *p, const cli_command *cmd, const vo
         int given = o->kind == CLI_STRING ? *(const char *const *)f != NULL
                     : o->given            ? *(const int *)((const char *)opts + o->given - 1)
                                           : 1;
+        if (!given && o->short_name)
+            return usage_error(p, cmd, "option -%c %s is required", o->short_name, o->metavar ? o->metavar : "");
         if (!given)
             return usage_error(p, cmd, "option --%s %s is required", o->name, o->metavar ? o->metavar : "");
     }
