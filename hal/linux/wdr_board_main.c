@@ -32,7 +32,7 @@ static const cli_program board_program = {
 
 int main(int argc, char **argv)
 {
-    int n_args, done, rc = cli_main_single(&board_program, argc, argv, &(char){0}, &n_args, &done);
+    int n_args = 0, done = 0, rc = cli_main_single(&board_program, argc, argv, &(char){0}, &n_args, &done);
     if (rc != EX_OK || done)
         return rc;
     rc = hal_init();

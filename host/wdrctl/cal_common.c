@@ -149,7 +149,7 @@ static int select_from_probe(const cal_opts *o, const wdr_cal_source *src, wdr_c
     if (wdr_cal_informative_range(grid, MIN_SLOPE_CODES, lo, hi))
         return wdrctl_fail(EX_DATAERR, "the response is flat everywhere: no current range carries contrast");
     cfg->range_lo = *lo, cfg->range_hi = *hi;
-    if ((rc = wdr_cal_select_currents(grid, cfg, n_cur, *lo, *hi, o->sample, ch, err, sizeof err)))
+    if (wdr_cal_select_currents(grid, cfg, n_cur, *lo, *hi, o->sample, ch, err, sizeof err))
         return wdrctl_fail(EX_DATAERR, "current selection: %s", err);
     return EX_OK;
 }
@@ -203,9 +203,9 @@ int cal_acquire_and_fit(const cal_opts *o, const wdr_cal_source *src, cal_run *r
         wdr_cal_levels_free(&r->levels);
         r->levels = with_dark;
     }
-    if ((rc = wdr_cal_fit_array(&r->levels, &r->cfg, &r->res, err, sizeof err)))
+    if (wdr_cal_fit_array(&r->levels, &r->cfg, &r->res, err, sizeof err))
         return wdrctl_fail(EX_DATAERR, "calibrate: %s", err);
-    if ((rc = wdr_cal_build_table(&r->res, sensor_id, op_id, &r->table, &r->table_len, err, sizeof err)))
+    if (wdr_cal_build_table(&r->res, sensor_id, op_id, &r->table, &r->table_len, err, sizeof err))
         return wdrctl_fail(EX_SOFTWARE, "calibrate: %s", err);
     return EX_OK;
 }

@@ -168,7 +168,7 @@ static int connect_waiting(const char *address, int timeout_ms, int retries, int
     if (rc != WDR_OK) {
         int code = wdrctl_conn_fail(conn, rc);
         wdrctl_disconnect(conn);
-        return code;
+        return code != EX_OK ? code : EX_SOFTWARE; /* a failed connect never reads as a connection */
     }
     return EX_OK;
 }
@@ -217,7 +217,7 @@ int cmd_devices(int argc, char **argv)
     char err[256];
     int n = wdr_transport_list_usb(boards, 16, err, sizeof err);
     if (n < 0)
-        wdrctl_fail(0, "USB: %s", err);
+        wdrctl_message("USB: %s", err);
     for (int i = 0; i < n; i++)
         printf("%-24s usb        %04x:%04x        serial %s\n", boards[i].address_text, boards[i].vid, boards[i].pid,
                boards[i].serial);

@@ -41,7 +41,7 @@ static void print_param(const wdr_param_info *p)
 
 int cmd_operators(int argc, char **argv)
 {
-    int n_args, rc = wdrctl_parse(&wdrctl_cmd_operators, argc, argv, &(char){0}, &n_args);
+    int n_args = 0, rc = wdrctl_parse(&wdrctl_cmd_operators, argc, argv, &(char){0}, &n_args);
     if (rc != EX_OK)
         return rc;
     for (int id = 0; id < WDR_OP_COUNT; id++) {

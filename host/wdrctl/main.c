@@ -56,7 +56,7 @@ int wdrctl_parse(const cli_command *cmd, int argc, char **argv, void *opts, int 
     return cli_parse(&wdrctl_program, cmd, argc, argv, opts, n_args);
 }
 
-int wdrctl_fail(int code, const char *fmt, ...)
+void wdrctl_message(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -64,7 +64,6 @@ int wdrctl_fail(int code, const char *fmt, ...)
     vfprintf(stderr, fmt, ap);
     fputc('\n', stderr);
     va_end(ap);
-    return code;
 }
 
 int wdrctl_show_progress(void)

@@ -52,8 +52,10 @@ int cmd_fpn_report(int argc, char **argv);
 struct wdr_lum_stats;
 int wdrctl_stats_from_image(const char *path, struct wdr_lum_stats *st);
 
-/* Print "wdrctl: " and a formatted message to stderr; returns code. */
-int wdrctl_fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Print "wdrctl: " and a formatted message to stderr; returns code. A macro so that the
+ * static analysers see the code come back (a function in another file hides it). */
+void wdrctl_message(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+#define wdrctl_fail(code, ...) (wdrctl_message(__VA_ARGS__), (code))
 
 /* Whether progress may be drawn (stderr is a terminal and CI is not set). */
 int wdrctl_show_progress(void);
