@@ -27,18 +27,50 @@ static void option_label(const cli_option *o, char *out, size_t cap)
         snprintf(out, cap, "--%s%s%s", o->name, *m ? " " : "", m);
 }
 
+/* Add "what" to a help line: inside its closing parenthesis if it ends with one. */
+static size_t add_note(char *out, size_t n, size_t cap, const char *what)
+{
+    if (n >= cap)
+        return n;
+    if (n > 0 && out[n - 1] == ')')
+        return n - 1 + (size_t)snprintf(out + n - 1, cap - n + 1, "; %s)", what);
+    return n + (size_t)snprintf(out + n, cap - n, " (%s)", what);
+}
+
 /* The help line and what the table knows besides: range, repeatable, required. */
 static void option_help(const cli_option *o, char *out, size_t cap)
 {
+    char note[96] = "";
     size_t n = (size_t)snprintf(out, cap, "%s", o->help ? o->help : "");
-    if (n < cap && o->kind == CLI_INT)
-        n += (size_t)snprintf(out + n, cap - n, " (%.0f..%.0f)", o->min, o->max);
-    else if (n < cap && o->kind == CLI_DOUBLE && (o->min != 0 || o->max != 0))
-        n += (size_t)snprintf(out + n, cap - n, " (%g..%g)", o->min, o->max);
-    else if (n < cap && o->kind == CLI_LIST)
-        n += (size_t)snprintf(out + n, cap - n, " (repeatable, up to %d)", (int)o->max);
-    if (n < cap && (o->flags & CLI_REQUIRED))
-        snprintf(out + n, cap - n, " (required)");
+    if (o->kind == CLI_INT)
+        snprintf(note, sizeof note, "%.0f..%.0f", o->min, o->max);
+    else if (o->kind == CLI_DOUBLE && (o->min != 0 || o->max != 0))
+        snprintf(note, sizeof note, "%g..%g", o->min, o->max);
+    else if (o->kind == CLI_LIST)
+        snprintf(note, sizeof note, "repeatable, up to %d", (int)o->max);
+    if (note[0])
+        n = add_note(out, n, cap, note);
+    if (o->flags & CLI_REQUIRED)
+        add_note(out, n, cap, "required");
+}
+
+/* A paragraph folded at 96 columns after indent spaces. */
+static void print_wrapped(FILE *f, const char *text, int indent)
+{
+    const char *p = text;
+    while (*p) {
+        size_t len = strlen(p), take = len;
+        if (len > (size_t)(96 - indent)) {
+            take = (size_t)(96 - indent);
+            while (take > 0 && p[take] != ' ')
+                take--;
+            take = take ? take : (size_t)(96 - indent);
+        }
+        fprintf(f, "%*s%.*s\n", indent, "", (int)take, p);
+        p += take;
+        while (*p == ' ')
+            p++;
+    }
 }
 
 static int has_optional(const cli_command *cmd)
@@ -89,9 +121,12 @@ void cli_print_command_help(FILE *f, const cli_program *p, const cli_command *cm
 {
     char syn[1024];
     synopsis(p, cmd, syn, sizeof syn);
-    fprintf(f, "usage: %s\n\n%s\n", syn, cmd->summary ? cmd->summary : p->summary);
-    if (cmd->details)
-        fprintf(f, "\n%s\n", cmd->details);
+    fprintf(f, "usage: %s\n\n", syn);
+    print_wrapped(f, cmd->summary ? cmd->summary : p->summary, 0);
+    if (cmd->details) {
+        fputc('\n', f);
+        print_wrapped(f, cmd->details, 0);
+    }
     fprintf(f, "\noptions:\n");
     print_rows(f, cmd->options);
     fprintf(f, "  %-26s %s\n", "-h, --help", "show this help");

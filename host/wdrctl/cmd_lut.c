@@ -64,7 +64,7 @@ static const cli_option lut_build_rows[] = {
      .flags = CLI_REQUIRED},
     {"output", 'o', CLI_STRING, O(out), "LUT.bin", "where the table goes", .flags = CLI_REQUIRED},
     {"param", 0, CLI_LIST, O(params), "KEY=VALUE", "an operator parameter", .max = 16, .count = O(n_params)},
-    {"board", 0, CLI_STRING, O(board), "FILE", "board: a name in boards/ or a board.json file (default: the build's -DWDR_BOARD)"},
+    {"board", 0, CLI_STRING, O(board), "FILE", "a board name in boards/ or a board.json (default: the build's -DWDR_BOARD)"},
     {"csv", 0, CLI_STRING, O(csv), "FILE", "the table as t_s,code,v_ref_V"},
     {"plot", 0, CLI_STRING, O(plot), "FILE.png", "V_ref(t) and the pixel's response (gnuplot)"},
     {"json", 0, CLI_FLAG, O(json), NULL, "print the operator, scene, sensor and worst error as JSON"},
@@ -89,7 +89,7 @@ const cli_command wdrctl_cmd_lut_build = {
     lut_build_rows, cmd_lut_build, 0};
 
 static const cli_option lut_plots_rows[] = {
-    {"board", 0, CLI_STRING, offsetof(lut_plots_opts, board), "FILE", "board: a name in boards/ or a board.json file (default: the build's -DWDR_BOARD)"},
+    {"board", 0, CLI_STRING, offsetof(lut_plots_opts, board), "FILE", "a board name in boards/ or a board.json (default: the build's -DWDR_BOARD)"},
     {"outdir", 0, CLI_STRING, offsetof(lut_plots_opts, outdir), "DIR", "where vref_all.png and response_all.png go (default .)"},
     {0}};
 
