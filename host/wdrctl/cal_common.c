@@ -1,5 +1,6 @@
 /* What `wdrctl calibrate` and `wdrctl fpn report` share (see cal_common.h). */
 #include "cal_common.h"
+#include "cli_number.h"
 #include "wdr_err.h"
 #include <math.h>
 #include <stdio.h>
@@ -55,9 +56,8 @@ static int parse_current_list(const char *text, const char *what, double *amps, 
     snprintf(buf, sizeof buf, "%s", text);
     *n = 0;
     for (char *tok = strtok_r(buf, ", \t\r\n", &save); tok; tok = strtok_r(NULL, ", \t\r\n", &save)) {
-        char *end;
-        double v = strtod(tok, &end);
-        if (end == tok || *end || !isfinite(v) || v <= 0 || *n >= WDR_CAL_MAX_LEVELS)
+        double v = 0;
+        if (cli_number_double(tok, 0, HUGE_VAL, &v) != CLI_NUM_OK || v <= 0 || *n >= WDR_CAL_MAX_LEVELS)
             return wdrctl_fail(EX_DATAERR, "%s: current '%s' is not a positive finite number (A), or too many",
                                what, tok);
         if (*n > 0 && !(v > amps[*n - 1]))
