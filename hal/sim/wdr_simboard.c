@@ -6,6 +6,7 @@
  * Ends cleanly on SIGTERM or SIGINT, when stdin is a pipe that reaches EOF (the parent went
  * away), or with --once when the first host disconnects. */
 #include "board.h"
+#include "cli_options.h"
 #include "hal.h"
 #include "hal_sim_emul.h"
 #include "simboard_loop.h"
@@ -13,8 +14,8 @@
 #include "wdr_scene.h"
 #include "wdr_sim.h"
 #include <errno.h>
-#include <getopt.h>
 #include <signal.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,71 +27,58 @@ typedef struct simboard_opts {
     const char *board, *scene, *socket, *flash;
     uint64_t seed;
     int seed_given, once;
+    const char *exposure_text;
     wdr_exposure exposure;       /* --exposure: how the scene is placed in the sensor's range */
 } simboard_opts;
 
-static void usage(FILE *f)
-{
-    fprintf(f, "usage: wdr-simboard --board FILE --scene FILE [--socket PATH] [--flash FILE] [--seed N] [--once]\n"
-               "                    [--exposure auto|A_per_cd/m2]\n"
-               "  --exposure X   auto: the scene's log-average onto the ramp's key; or a scale in A per cd/m2\n"
-               "  --socket PATH  where wdrctl connects (default wdr-simboard.sock); wdrctl --device sim:PATH\n"
-               "  --flash FILE   keep the table flash in FILE between runs (default: RAM, lost on exit)\n"
-               "  --seed N       chip seed: fixed-pattern draw (default: the scene's chip_seed)\n"
-               "  --once         exit when the first host disconnects\n");
-}
+#define O(f) offsetof(simboard_opts, f)
+static const cli_option rows[] = {
+    {"board", 0, CLI_STRING, O(board), "FILE", "the board description (board.json)", .flags = CLI_REQUIRED},
+    {"scene", 0, CLI_STRING, O(scene), "FILE", "the scene the sensor looks at (sim/scenes/*.json)", .flags = CLI_REQUIRED},
+    {"socket", 0, CLI_STRING, O(socket), "PATH",
+     "where wdrctl connects (default wdr-simboard.sock): wdrctl --device sim:PATH"},
+    {"flash", 0, CLI_STRING, O(flash), "FILE", "keep the table flash in FILE between runs (default: RAM, lost on exit)"},
+    {"seed", 0, CLI_U64, O(seed), "N", "chip seed: fixed-pattern draw (default: the scene's chip_seed)",
+     .given = CLI_GIVEN(simboard_opts, seed_given)},
+    {"once", 0, CLI_FLAG, O(once), NULL, "exit when the first host disconnects"},
+    {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A",
+     "auto: the scene's log-average onto the ramp's key; or a scale in A per cd/m2"},
+    {0}};
+#undef O
 
-static int parse_seed(const char *text, uint64_t *out)
-{
-    char *end;
-    errno = 0;
-    unsigned long long v = strtoull(text, &end, 0);
-    if (errno || end == text || *end || text[0] == '-') {
-        fprintf(stderr, "wdr-simboard: --seed must be a non-negative integer, got '%s'\n", text);
-        return EX_USAGE;
-    }
-    *out = v;
-    return EX_OK;
-}
+static const cli_command simboard_command = {
+    NULL, NULL, 0, 0, "the controller firmware on the simulated HAL, served on a local socket", NULL, rows, NULL, 0};
 
-static int parse_args(int argc, char **argv, simboard_opts *o)
+static const cli_section sections[] = {
+    {"SIGNALS", "SIGTERM or SIGINT ends it cleanly; so does the end of stdin when stdin is a pipe (the parent "
+                "went away), and with --once the first host's disconnect."},
+    {"EXIT STATUS", "0 on a clean stop; otherwise a sysexits(3) code: 64 usage, 65 a bad scene or board file, 66 "
+                    "a file that cannot be read, 70 the firmware did not start, 73 the socket or flash file "
+                    "cannot be created."},
+    {"SEE ALSO", "wdrctl(1), wdrsim(1)"},
+    {NULL, NULL}};
+
+static const cli_program simboard_program = {
+    .name = "wdr-simboard",
+    .summary = "the wdrcam controller firmware on a simulated board",
+    .description = "wdr-simboard runs the controller firmware on the simulated HAL: virtual time, strict flash, "
+                   "the pixel-array simulator looking at a scene, and the USB bulk endpoints served on a local "
+                   "socket for wdrctl --device sim:PATH.",
+    .single = &simboard_command,
+    .sections = sections,
+};
+
+/* @return a sysexits code; *done when --help or --version was answered */
+static int parse_args(int argc, char **argv, simboard_opts *o, int *done)
 {
-    static const struct option opts[] = {
-        {"board", required_argument, NULL, 'b'}, {"scene", required_argument, NULL, 'S'},
-        {"socket", required_argument, NULL, 's'}, {"flash", required_argument, NULL, 'f'},
-        {"seed", required_argument, NULL, 'e'},  {"once", no_argument, NULL, 'o'},
-        {"exposure", required_argument, NULL, 'x'},
-        {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0}};
+    int n_args;
     *o = (simboard_opts){.socket = "wdr-simboard.sock", .seed = 1};
-    int c;
-    while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
-        switch (c) {
-        case 'b': o->board = optarg; break;
-        case 'S': o->scene = optarg; break;
-        case 's': o->socket = optarg; break;
-        case 'f': o->flash = optarg; break;
-        case 'o': o->once = 1; break;
-        case 'x':
-            if (wdr_exposure_parse(optarg, &o->exposure)) {
-                fprintf(stderr, "wdr-simboard: --exposure must be auto or A per cd/m2 in (0, 1], got '%s'\n", optarg);
-                return EX_USAGE;
-            }
-            break;
-        case 'e':
-            if (parse_seed(optarg, &o->seed) != EX_OK)
-                return EX_USAGE;
-            o->seed_given = 1;
-            break;
-        case 'h': usage(stdout); exit(EX_OK);
-        default: usage(stderr); return EX_USAGE;
-        }
-    }
-    if (optind < argc || !o->board || !o->scene) {
-        fprintf(stderr, "wdr-simboard: %s\n", optind < argc ? "unexpected argument" : "--board and --scene are required");
-        usage(stderr);
+    int rc = cli_main_single(&simboard_program, argc, argv, o, &n_args, done);
+    if (rc == EX_OK && !*done && o->exposure_text && wdr_exposure_parse(o->exposure_text, &o->exposure)) {
+        fprintf(stderr, "wdr-simboard: --exposure must be auto or A per cd/m2 in (0, 1], got '%s'\n", o->exposure_text);
         return EX_USAGE;
     }
-    return EX_OK;
+    return rc;
 }
 
 static void on_signal(int sig)
@@ -153,8 +141,8 @@ int main(int argc, char **argv)
 {
     simboard_opts o;
     wdr_board b;
-    int rc = parse_args(argc, argv, &o);
-    if (rc != EX_OK)
+    int done, rc = parse_args(argc, argv, &o, &done);
+    if (rc != EX_OK || done)
         return rc;
     install_signals();
     if ((rc = start_board(&o, &b)) != EX_OK) {

@@ -13,7 +13,7 @@
 
 int wdr_gnuplot_run(const char *script, char *err, int errlen)
 {
-    const char *exe = getenv("WDR_GNUPLOT") ? getenv("WDR_GNUPLOT") : WDR_GNUPLOT;
+    const char *env = getenv("WDR_GNUPLOT"), *exe = env ? env : WDR_GNUPLOT; /* one read: it cannot change */
     char cmd[600];
     snprintf(cmd, sizeof cmd, "'%s' 2>&1", exe);
     if (access(exe, X_OK) != 0 && strchr(exe, '/')) {

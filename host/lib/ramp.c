@@ -301,6 +301,8 @@ static int steps_uniform(const wdr_ramp *r, const wdr_board *b, uint32_t entries
     double dt = r->t_end / entries;
     if (entries > WDR_LUT_MAX_ENTRIES)
         return WDR_E_TOO_LARGE;
+    if (entries == 0) /* no step: the table's last tick below would be read before its first */
+        return WDR_E_INVAL;
     if (dt < tick_s)
         return WDR_E_INVAL;
     for (uint32_t k = 0; k < entries; k++) {

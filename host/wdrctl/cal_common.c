@@ -1,7 +1,7 @@
 /* What `wdrctl calibrate` and `wdrctl fpn report` share (see cal_common.h). */
 #include "cal_common.h"
+#include "cli_number.h"
 #include "wdr_err.h"
-#include <getopt.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -9,93 +9,25 @@
 
 /* ---- options ---- */
 
-static int parse_on_off(const char *opt, const char *v, int *out)
-{
-    if (!strcmp(v, "on") || !strcmp(v, "1"))
-        return *out = 1, EX_OK;
-    if (!strcmp(v, "off") || !strcmp(v, "0"))
-        return *out = 0, EX_OK;
-    return wdrctl_fail(EX_USAGE, "option %s: '%s' must be on or off", opt, v);
-}
-
-static int parse_count(const char *opt, const char *v, int lo, int hi, int *out)
-{
-    char *end;
-    long n = strtol(v, &end, 10);
-    if (end == v || *end || n < lo || n > hi)
-        return wdrctl_fail(EX_USAGE, "option %s: '%s' must be a whole number in %d..%d", opt, v, lo, hi);
-    *out = (int)n;
-    return EX_OK;
-}
-
-static int form_from_name(const char *name, int *form)
-{
-    static const struct { const char *name; int id; } names[] = {
-        {"moebius", WDR_FORM_MOEBIUS}, {"poly", WDR_FORM_POLY}, {"basis", WDR_FORM_BASIS}};
-    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
-        if (!strcmp(name, names[i].name))
-            return *form = names[i].id, EX_OK;
-    return wdrctl_fail(EX_USAGE, "option --form: unknown table form '%s' (known: moebius, poly, basis)", name);
-}
+const cli_choice cal_on_off[] = {{"on", 1}, {"off", 0}, {"1", 1}, {"0", 0}, {NULL, 0}};
+const cli_choice cal_forms[] = {
+    {"moebius", WDR_FORM_MOEBIUS}, {"poly", WDR_FORM_POLY}, {"basis", WDR_FORM_BASIS}, {NULL, 0}};
 
 const char *cal_form_name(int form)
 {
     return form == WDR_FORM_MOEBIUS ? "moebius" : form == WDR_FORM_BASIS ? "basis" : "poly";
 }
 
-static int set_option(int c, const char *arg, cal_opts *o)
+int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o)
 {
-    switch (c) {
-    case 'b': o->board = arg; return EX_OK;
-    case 'p': o->op_name = arg; return EX_OK;
-    case 'm': o->models = arg; return EX_OK;
-    case 'c': o->currents = arg; return EX_OK;
-    case 'L': o->levels_file = arg; return EX_OK;
-    case 'o': o->out = arg; return EX_OK;
-    case 'O': o->outdir = arg; return EX_OK;
-    case 'd': o->device = arg; return EX_OK;
-    case 'l': o->lut = arg; return EX_OK;
-    case 'u': o->upload = 1; return EX_OK;
-    case 'j': o->json = 1; return EX_OK;
-    case 'n': return parse_count("--select", arg, 2, WDR_CAL_MAX_LEVELS - 1, &o->select_n);
-    case 'M': return parse_count("--frames", arg, 1, 4096, &o->frames);
-    case 'P': return parse_count("--sample", arg, 16, 1 << 20, &o->sample);
-    case 'S': return parse_count("--out-scale", arg, 1, 16, &o->out_scale);
-    case 'a': return parse_on_off("--adc", arg, &o->adc);
-    case 'D': return parse_on_off("--dac", arg, &o->dac);
-    case 's': o->seed = strtoul(arg, NULL, 0); return EX_OK;
-    case 'F': return form_from_name(arg, &o->form);
-    default: return EX_USAGE;
-    }
-}
-
-int cal_parse_options(int argc, char **argv, const char *cmd, cal_opts *o)
-{
-    static const struct option longopts[] = {
-        {"board", required_argument, NULL, 'b'},    {"operator", required_argument, NULL, 'p'},
-        {"model", required_argument, NULL, 'm'},    {"models", required_argument, NULL, 'm'},
-        {"currents", required_argument, NULL, 'c'}, {"levels-file", required_argument, NULL, 'L'},
-        {"outdir", required_argument, NULL, 'O'},   {"device", required_argument, NULL, 'd'},
-        {"upload", no_argument, NULL, 'u'},         {"json", no_argument, NULL, 'j'},
-        {"select", required_argument, NULL, 'n'},   {"frames", required_argument, NULL, 'M'},
-        {"sample", required_argument, NULL, 'P'},   {"adc", required_argument, NULL, 'a'},
-        {"dac", required_argument, NULL, 'D'},      {"seed", required_argument, NULL, 's'},
-        {"lut", required_argument, NULL, 'l'},      {"out-scale", required_argument, NULL, 'S'},
-        {"form", required_argument, NULL, 'F'},     {NULL, 0, NULL, 0}};
+    int n_args;
     *o = (cal_opts){.op_name = "reinhard", .frames = 4, .adc = 1, .dac = 1, .sample = 256, .seed = 1, .out_scale = 1,
                     .form = -1};
-    optind = 1;
-    int c;
-    while ((c = getopt_long(argc, argv, "o:", longopts, NULL)) != -1) {
-        if (c == '?')
-            return wdrctl_fail(EX_USAGE, "%s: bad option (see 'wdrctl --help')", cmd);
-        if (set_option(c, optarg, o) != EX_OK)
-            return EX_USAGE; /* set_option named the option and the value */
-    }
-    if (optind < argc)
-        return wdrctl_fail(EX_USAGE, "%s: unexpected argument '%s'", cmd, argv[optind]);
-    const char *env = getenv("WDR_DEVICE"); /* as the other board commands: a board when one is named */
-    if (!o->device && env && *env)
+    int rc = wdrctl_parse(cmd, argc, argv, o, &n_args);
+    if (rc != EX_OK)
+        return rc;
+    const char *env = wdrctl_global.device; /* --device or $WDR_DEVICE: a board when one is named */
+    if ((cmd->flags & CLI_CMD_BOARD) && env && *env)
         o->device = env;
     return EX_OK;
 }
@@ -124,9 +56,8 @@ static int parse_current_list(const char *text, const char *what, double *amps, 
     snprintf(buf, sizeof buf, "%s", text);
     *n = 0;
     for (char *tok = strtok_r(buf, ", \t\r\n", &save); tok; tok = strtok_r(NULL, ", \t\r\n", &save)) {
-        char *end;
-        double v = strtod(tok, &end);
-        if (end == tok || *end || !isfinite(v) || v <= 0 || *n >= WDR_CAL_MAX_LEVELS)
+        double v = 0;
+        if (cli_number_double(tok, 0, HUGE_VAL, &v) != CLI_NUM_OK || v <= 0 || *n >= WDR_CAL_MAX_LEVELS)
             return wdrctl_fail(EX_DATAERR, "%s: current '%s' is not a positive finite number (A), or too many",
                                what, tok);
         if (*n > 0 && !(v > amps[*n - 1]))
@@ -218,7 +149,7 @@ static int select_from_probe(const cal_opts *o, const wdr_cal_source *src, wdr_c
     if (wdr_cal_informative_range(grid, MIN_SLOPE_CODES, lo, hi))
         return wdrctl_fail(EX_DATAERR, "the response is flat everywhere: no current range carries contrast");
     cfg->range_lo = *lo, cfg->range_hi = *hi;
-    if ((rc = wdr_cal_select_currents(grid, cfg, n_cur, *lo, *hi, o->sample, ch, err, sizeof err)))
+    if (wdr_cal_select_currents(grid, cfg, n_cur, *lo, *hi, o->sample, ch, err, sizeof err))
         return wdrctl_fail(EX_DATAERR, "current selection: %s", err);
     return EX_OK;
 }
@@ -272,9 +203,9 @@ int cal_acquire_and_fit(const cal_opts *o, const wdr_cal_source *src, cal_run *r
         wdr_cal_levels_free(&r->levels);
         r->levels = with_dark;
     }
-    if ((rc = wdr_cal_fit_array(&r->levels, &r->cfg, &r->res, err, sizeof err)))
+    if (wdr_cal_fit_array(&r->levels, &r->cfg, &r->res, err, sizeof err))
         return wdrctl_fail(EX_DATAERR, "calibrate: %s", err);
-    if ((rc = wdr_cal_build_table(&r->res, sensor_id, op_id, &r->table, &r->table_len, err, sizeof err)))
+    if (wdr_cal_build_table(&r->res, sensor_id, op_id, &r->table, &r->table_len, err, sizeof err))
         return wdrctl_fail(EX_SOFTWARE, "calibrate: %s", err);
     return EX_OK;
 }

@@ -6,6 +6,8 @@
 #include "cal_engine.h"
 #include "cal_select.h"
 #include "wdrctl.h"
+#include <stddef.h>
+#include <stdint.h>
 
 #define GRID_LO 1e-14
 #define GRID_HI 1e-8
@@ -17,8 +19,28 @@ typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
     int select_n, frames, adc, dac, upload, json, sample, out_scale;
     int form; /* enum wdr_cal_form; -1: the model's default */
-    unsigned long seed;
+    uint64_t seed;
 } cal_opts;
+
+/* Rows both commands' option tables use (cmd_calibrate.c, cmd_fpn_report.c): one row each. */
+#define CAL_O(f) offsetof(cal_opts, f)
+extern const cli_choice cal_on_off[], cal_forms[];
+#define CAL_ROW_BOARD {"board", 0, CLI_STRING, CAL_O(board), "FILE", "board: a name in boards/ or a board.json file"}
+#define CAL_ROW_OPERATOR                                                                                             \
+    {"operator", 0, CLI_STRING, CAL_O(op_name), "NAME", "operator of the simulated chip's LUT (default reinhard)"}
+#define CAL_ROW_ADC                                                                                                  \
+    {"adc", 0, CLI_CHOICE, CAL_O(adc), "on|off", "the simulated column ADC quantises (default on)", .choices = cal_on_off}
+#define CAL_ROW_DAC                                                                                                  \
+    {"dac", 0, CLI_CHOICE, CAL_O(dac), "on|off", "the simulated ramp DAC quantises (default on)", .choices = cal_on_off}
+#define CAL_ROW_FRAMES {"frames", 0, CLI_INT, CAL_O(frames), "M", "frames averaged per level (default 4)", .min = 1, .max = 4096}
+#define CAL_ROW_SAMPLE                                                                                               \
+    {"sample", 0, CLI_INT, CAL_O(sample), "N", "pixels sampled to choose currents (default 256)", .min = 16,       \
+     .max = 1 << 20}
+#define CAL_ROW_SEED {"seed", 0, CLI_U64, CAL_O(seed), "N", "chip seed of the simulated sensor (default 1)"}
+#define CAL_ROW_OUT_SCALE                                                                                            \
+    {"out-scale", 0, CLI_INT, CAL_O(out_scale), "K", "corrected codes span raw_max * K (default 1)", .min = 1,     \
+     .max = 16}
+#define CAL_ROW_JSON {"json", 0, CLI_FLAG, CAL_O(json), NULL, "print the summary as JSON"}
 
 typedef struct sim_chip {
     wdr_sim *sim;
@@ -36,9 +58,9 @@ typedef struct cal_run {
     double lo, hi;
 } cal_run;
 
-/* Parse the options of cmd ("calibrate" or "fpn report"); a board from $WDR_DEVICE when none
- * is named. Prints what is wrong. @return a sysexits code */
-int cal_parse_options(int argc, char **argv, const char *cmd, cal_opts *o);
+/* Parse the options of cmd (wdrctl_cmd_calibrate or wdrctl_cmd_fpn_report) by its table; a board
+ * command takes the board from --device or $WDR_DEVICE. Prints what is wrong. @return a sysexits code */
+int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o);
 int cal_model_from_name(const char *name, int *model);
 const char *cal_model_name(int model);
 const char *cal_form_name(int form);

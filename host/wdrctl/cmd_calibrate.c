@@ -53,7 +53,7 @@ static int upload_lut_with_margin(device_src *d, const char *path)
 static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
 {
     memset(d, 0, sizeof *d);
-    int rc = wdrctl_connect(o->device, WDR_CLIENT_TIMEOUT_MS, WDR_CLIENT_RETRIES, &d->conn);
+    int rc = wdrctl_connect(o->device, wdrctl_global.timeout_ms, wdrctl_global.retries, &d->conn);
     if (rc != EX_OK)
         return rc;
     const wdr_info *in = &d->conn.c->info;
@@ -148,11 +148,32 @@ static int calibrate_with(const cal_opts *o, const wdr_cal_source *src, cal_run 
     return rc;
 }
 
+static const cli_option calibrate_rows[] = {
+    {"output", 'o', CLI_STRING, CAL_O(out), "CAL.bin", "where the calibration table goes"},
+    {"model", 0, CLI_STRING, CAL_O(models), "NAME", "spline, simple3, complex4, lsq or polymap (default spline)"},
+    {"models", 0, CLI_STRING, CAL_O(models), "NAME", "the same as --model", .flags = CLI_HIDDEN},
+    {"currents", 0, CLI_STRING, CAL_O(currents), "A,B,..", "the light levels, in A per pixel, rising"},
+    {"levels-file", 0, CLI_STRING, CAL_O(levels_file), "FILE", "the light levels, one per line (# comments)"},
+    {"select", 0, CLI_INT, CAL_O(select_n), "N", "choose N levels from a probe", .min = 2, .max = WDR_CAL_MAX_LEVELS - 1},
+    CAL_ROW_FRAMES, CAL_ROW_BOARD, CAL_ROW_OPERATOR, CAL_ROW_ADC, CAL_ROW_DAC,
+    {"lut", 0, CLI_STRING, CAL_O(lut), "LUT.bin", "with --device: image with this LUT (stored with a margin)"},
+    {"upload", 0, CLI_FLAG, CAL_O(upload), NULL, "with --device: store the table on the board and apply it"},
+    CAL_ROW_OUT_SCALE,
+    {"form", 0, CLI_CHOICE, CAL_O(form), NULL, "table form (default: the model's)", .choices = cal_forms,
+     .what = "table form"},
+    CAL_ROW_SAMPLE, CAL_ROW_SEED, CAL_ROW_JSON, {0}};
+
+const cli_command wdrctl_cmd_calibrate = {
+    "calibrate", NULL, 0, 0, "fixed-pattern-noise calibration of the simulated chip, or of a board (--device)",
+    "Give -o CAL.bin and/or --upload. A simulated board sets its own light; a real one asks for each level of "
+    "--currents or --levels-file.",
+    calibrate_rows, cmd_calibrate, CLI_CMD_BOARD};
+
 int cmd_calibrate(int argc, char **argv)
 {
     cal_opts o;
     wdr_board b;
-    int model = WDR_MODEL_SPLINE, rc = cal_parse_options(argc, argv, "calibrate", &o);
+    int model = WDR_MODEL_SPLINE, rc = cal_parse_options(argc, argv, &wdrctl_cmd_calibrate, &o);
     if (rc != EX_OK || (o.models && (rc = cal_model_from_name(o.models, &model)) != EX_OK))
         return rc;
     if (!o.out && !o.upload)

@@ -1,6 +1,7 @@
 /* wdrctl commands that talk to a board: devices, info, status, lut upload/select, cal upload,
  * capture, stream, integration, sim illuminant. The board is chosen with --device ADDR or
  * $WDR_DEVICE (sim:/path.sock, usb, usb:BUS-ADDR); failures map to sysexits codes. */
+#include "cli_number.h"
 #include "file_io.h"
 #include "image_io.h"
 #include "transport.h"
@@ -11,21 +12,16 @@
 #include "wdrctl.h"
 #include <cJSON.h>
 #include <errno.h>
-#include <getopt.h>
 #include <math.h>
 #include <signal.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 #include <unistd.h>
 
-/* ---- Options shared by the device commands ------------------------------------------------ */
-
-enum opt_bit {
-    OPT_OUT = 1 << 0, OPT_COUNT = 1 << 1, OPT_BITS = 1 << 2, OPT_RAW = 1 << 3, OPT_AVERAGE = 1 << 4,
-    OPT_NO_VERIFY = 1 << 5, OPT_SECONDS = 1 << 6, OPT_NEGATE = 1 << 7, OPT_JSON = 1 << 8
-};
+/* ---- Options: one table per command, from rows shared by the device commands ------------------ */
 
 typedef struct dev_opts {
     const char *device, *out;
@@ -35,103 +31,77 @@ typedef struct dev_opts {
     char **args; /* positional arguments after the options */
 } dev_opts;
 
-static const struct option long_opts[] = {
-    {"device", required_argument, NULL, 'd'}, {"timeout", required_argument, NULL, 't'},
-    {"wait", required_argument, NULL, 'w'},
-    {"retries", required_argument, NULL, 'r'}, {"output", required_argument, NULL, 'o'},
-    {"count", required_argument, NULL, 'n'},  {"bits", required_argument, NULL, 'b'},
-    {"raw", no_argument, NULL, 'R'},          {"average", no_argument, NULL, 'A'},
-    {"no-verify", no_argument, NULL, 'V'},    {"seconds", required_argument, NULL, 's'},
-    {"negate", no_argument, NULL, 'N'},       {"json", no_argument, NULL, 'J'},
-    {"help", no_argument, NULL, 'h'},
-    {NULL, 0, NULL, 0}};
+#define O(f) offsetof(dev_opts, f)
+#define ROW_JSON {"json", 0, CLI_FLAG, O(json), NULL, "print JSON"}
+#define ROW_NO_VERIFY {"no-verify", 0, CLI_FLAG, O(no_verify), NULL, "skip the check of the file against the board"}
+#define ROW_COUNT(what) {"count", 'n', CLI_INT, O(count), "N", what, .min = 1, .max = 65535}
+static const cli_choice bit_depths[] = {{"8", 8}, {"16", 16}, {NULL, 0}};
+static const cli_option no_rows[] = {{0}};
+static const cli_option json_rows[] = {ROW_JSON, {0}};
+static const cli_option upload_rows[] = {ROW_NO_VERIFY, {0}};
+static const cli_option capture_rows[] = {
+    {"output", 'o', CLI_STRING, O(out), "FILE", "FILE.png or FILE.pfm (raw codes); numbered for several frames",
+     .flags = CLI_REQUIRED},
+    ROW_COUNT("frames to capture (default 1)"),
+    {"bits", 0, CLI_CHOICE, O(bits), NULL, "PNG depth (default 16)", .choices = bit_depths, .what = "PNG depth"},
+    {"raw", 0, CLI_FLAG, O(raw), NULL, "PNG of the codes as they are (16-bit), not scaled to the depth"},
+    {"average", 0, CLI_FLAG, O(average), NULL, "one image, the mean of the N frames"},
+    {"negate", 0, CLI_FLAG, O(negate), NULL, "brighter light looks brighter (the codes fall with light)"},
+    {0}};
+static const cli_option stream_rows[] = {
+    ROW_COUNT("stop after N frames (default: Ctrl-C)"),
+    {"seconds", 0, CLI_DOUBLE, O(seconds), "S", "stop after S seconds", .min = 0, .max = 1e9},
+    {0}};
+#undef O
 
-static int opt_allowed(int c, int allowed)
-{
-    switch (c) {
-    case 'o': return allowed & OPT_OUT;
-    case 'n': return allowed & OPT_COUNT;
-    case 'b': return allowed & OPT_BITS;
-    case 'R': return allowed & OPT_RAW;
-    case 'A': return allowed & OPT_AVERAGE;
-    case 'V': return allowed & OPT_NO_VERIFY;
-    case 's': return allowed & OPT_SECONDS;
-    case 'N': return allowed & OPT_NEGATE;
-    case 'J': return allowed & OPT_JSON;
-    default: return 1;
-    }
-}
+#define DEVICE_COMMAND(var, name, args, lo, hi, summary, rows, fn) \
+    int fn(int argc, char **argv);                                \
+    const cli_command var = {name, args, lo, hi, summary, NULL, rows, fn, CLI_CMD_BOARD}
+DEVICE_COMMAND(wdrctl_cmd_devices, "devices", NULL, 0, 0,
+               "list wdrcam USB boards, and the simulated one given by --device", no_rows, cmd_devices);
+DEVICE_COMMAND(wdrctl_cmd_info, "info", NULL, 0, 0, "board identity and protocol version", json_rows, cmd_info);
+DEVICE_COMMAND(wdrctl_cmd_status, "status", NULL, 0, 0, "state, active tables, counters", json_rows, cmd_status);
+DEVICE_COMMAND(wdrctl_cmd_lut_upload, "lut upload", "LUT.bin", 1, 1, "store a LUT in flash and play it", upload_rows,
+               cmd_lut_upload);
+DEVICE_COMMAND(wdrctl_cmd_lut_select, "lut select", "A|B|newest", 1, 1, "play the LUT of a slot", no_rows,
+               cmd_lut_select);
+DEVICE_COMMAND(wdrctl_cmd_cal_upload, "cal upload", "CAL.bin", 1, 1,
+               "store a calibration table in flash and apply it", upload_rows, cmd_cal_upload);
+DEVICE_COMMAND(wdrctl_cmd_integration, "integration", "NS", 1, 1, "set the integration time (0: the LUT's own)",
+               no_rows, cmd_integration);
+DEVICE_COMMAND(wdrctl_cmd_exposure, "exposure", "auto|fixed", 1, 1,
+               "the board retimes its ramp to the scene (LUT 1.1 exposure table), or stops", no_rows, cmd_exposure);
+DEVICE_COMMAND(wdrctl_cmd_capture, "capture", NULL, 0, 0, "capture N frames to PNG or PFM files", capture_rows,
+               cmd_capture);
+DEVICE_COMMAND(wdrctl_cmd_stream, "stream", NULL, 0, 0, "frames back to back, one line each, until Ctrl-C",
+               stream_rows, cmd_stream);
+DEVICE_COMMAND(wdrctl_cmd_sim_illuminant, "sim illuminant", "AMPS", 1, 1,
+               "light every pixel of a simulated board uniformly", no_rows, cmd_sim_illuminant);
 
-static int parse_int(const char *cmd, const char *name, const char *text, long lo, long hi, int *out)
-{
-    char *end;
-    errno = 0;
-    long v = strtol(text, &end, 0);
-    if (errno || end == text || *end || v < lo || v > hi)
-        return wdrctl_fail(EX_USAGE, "%s: %s must be an integer in %ld..%ld, got '%s'", cmd, name, lo, hi, text);
-    *out = (int)v;
-    return EX_OK;
-}
-
-static int parse_double(const char *cmd, const char *name, const char *text, double *out)
-{
-    char *end;
-    errno = 0;
-    double v = strtod(text, &end);
-    if (errno || end == text || *end || !isfinite(v))
-        return wdrctl_fail(EX_USAGE, "%s: %s must be a finite number, got '%s'", cmd, name, text);
-    *out = v;
-    return EX_OK;
-}
-
-static int set_opt(const char *cmd, int c, dev_opts *o)
-{
-    switch (c) {
-    case 'd': o->device = optarg; return EX_OK;
-    case 'o': o->out = optarg; return EX_OK;
-    case 't': return parse_int(cmd, "--timeout", optarg, 1, 3600000, &o->timeout_ms);
-    case 'w': return parse_int(cmd, "--wait", optarg, 0, 3600000, &o->wait_ms);
-    case 'r': return parse_int(cmd, "--retries", optarg, 0, 100, &o->retries);
-    case 'n': return parse_int(cmd, "-n", optarg, 1, 65535, &o->count);
-    case 'b': return parse_int(cmd, "--bits", optarg, 8, 16, &o->bits);
-    case 's': return parse_double(cmd, "--seconds", optarg, &o->seconds);
-    case 'R': o->raw = 1; return EX_OK;
-    case 'A': o->average = 1; return EX_OK;
-    case 'V': o->no_verify = 1; return EX_OK;
-    case 'N': o->negate = 1; return EX_OK;
-    case 'J': o->json = 1; return EX_OK;
-    default: return EX_USAGE;
-    }
-}
-
-/* Parse argv (argv[0] is the command name); n_args_min..max positional arguments. */
-static int parse_opts(int argc, char **argv, const char *cmd, int allowed, int n_min, int n_max, dev_opts *o)
+/* Parse argv (argv[0] is the command name) by cmd's table; the board from the global options. */
+static int parse_opts(int argc, char **argv, const cli_command *cmd, dev_opts *o)
 {
     memset(o, 0, sizeof *o);
-    o->device = getenv("WDR_DEVICE");
-    o->timeout_ms = WDR_CLIENT_TIMEOUT_MS;
-    o->retries = WDR_CLIENT_RETRIES;
+    o->device = wdrctl_global.device;
+    o->timeout_ms = wdrctl_global.timeout_ms;
+    o->retries = wdrctl_global.retries;
+    o->wait_ms = wdrctl_global.wait_ms;
     o->bits = 16;
-    optind = 1;
-    opterr = 0;
-    int c;
-    while ((c = getopt_long(argc, argv, ":d:t:r:o:n:b:s:w:", long_opts, NULL)) != -1) {
-        if (c == '?' || c == ':' || c == 'h' || !opt_allowed(c, allowed))
-            return wdrctl_fail(EX_USAGE, "%s: %s '%s' (see wdrctl --help)", cmd,
-                               c == ':' ? "missing value for option" : "unknown or inapplicable option",
-                               argv[optind - 1]);
-        int rc = set_opt(cmd, c, o);
-        if (rc != EX_OK)
-            return rc;
-    }
-    o->args = argv + optind;
-    o->n_args = argc - optind;
-    if (o->n_args < n_min || o->n_args > n_max)
-        return wdrctl_fail(EX_USAGE, "%s: expected %d..%d arguments, got %d (see wdrctl --help)", cmd, n_min, n_max,
-                           o->n_args);
-    if (o->bits != 8 && o->bits != 16)
-        return wdrctl_fail(EX_USAGE, "%s: --bits must be 8 or 16, got %d", cmd, o->bits);
-    return EX_OK;
+    int rc = wdrctl_parse(cmd, argc, argv, o, &o->n_args);
+    o->args = argv + 1;
+    return rc;
+}
+
+/* A positional number (NS, AMPS) in lo..hi, by the one number parser. */
+static int parse_arg(const char *cmd, const char *name, const char *text, double lo, double hi, double *out)
+{
+    char msg[320], what[64];
+    int rc = cli_number_double(text, lo, hi, out);
+    if (rc == CLI_NUM_OK)
+        return EX_OK;
+    snprintf(what, sizeof what, "%s: %s", cmd, name);
+    cli_number_message(rc, what, text, lo, hi, 0, msg, sizeof msg);
+    return wdrctl_fail(EX_USAGE, "%s", msg);
 }
 
 /* ---- Connection and exit codes --------------------------------------------------------------- */
@@ -200,7 +170,7 @@ static int connect_waiting(const char *address, int timeout_ms, int retries, int
     if (rc != WDR_OK) {
         int code = wdrctl_conn_fail(conn, rc);
         wdrctl_disconnect(conn);
-        return code;
+        return code != EX_OK ? code : EX_SOFTWARE; /* a failed connect never reads as a connection */
     }
     return EX_OK;
 }
@@ -242,14 +212,14 @@ static void print_sim_device(const dev_opts *o)
 int cmd_devices(int argc, char **argv)
 {
     dev_opts o;
-    int rc = parse_opts(argc, argv, "devices", 0, 0, 0, &o);
+    int rc = parse_opts(argc, argv, &wdrctl_cmd_devices, &o);
     if (rc != EX_OK)
         return rc;
     wdr_usb_board boards[16];
     char err[256];
     int n = wdr_transport_list_usb(boards, 16, err, sizeof err);
     if (n < 0)
-        wdrctl_fail(0, "USB: %s", err);
+        wdrctl_message("USB: %s", err);
     for (int i = 0; i < n; i++)
         printf("%-24s usb        %04x:%04x        serial %s\n", boards[i].address_text, boards[i].vid, boards[i].pid,
                boards[i].serial);
@@ -300,7 +270,7 @@ int cmd_info(int argc, char **argv)
 {
     dev_opts o;
     wdrctl_conn conn;
-    int rc = parse_opts(argc, argv, "info", OPT_JSON, 0, 0, &o);
+    int rc = parse_opts(argc, argv, &wdrctl_cmd_info, &o);
     if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
     (o.json ? print_info_json : print_info_text)(wdr_transport_name(conn.t), &conn.c->info);
@@ -371,7 +341,7 @@ int cmd_status(int argc, char **argv)
     dev_opts o;
     wdrctl_conn conn;
     wdr_status_report s;
-    int rc = parse_opts(argc, argv, "status", OPT_JSON, 0, 0, &o);
+    int rc = parse_opts(argc, argv, &wdrctl_cmd_status, &o);
     if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
     rc = wdr_client_status(conn.c, &s);
@@ -425,13 +395,14 @@ static int verify_table(int kind, const char *path, const uint8_t *buf, size_t l
     return EX_OK;
 }
 
-static int upload(int argc, char **argv, int kind, const char *cmd)
+static int upload(int argc, char **argv, int kind, const cli_command *command)
 {
+    const char *cmd = command->name;
     dev_opts o;
     wdrctl_conn conn;
     uint8_t *buf = NULL;
     size_t len = 0;
-    int rc = parse_opts(argc, argv, cmd, OPT_NO_VERIFY, 1, 1, &o);
+    int rc = parse_opts(argc, argv, command, &o);
     if (rc != EX_OK || (rc = read_table_file(o.args[0], &buf, &len)) != EX_OK)
         return rc;
     if ((rc = connect_opts(&o, &conn)) != EX_OK) {
@@ -454,9 +425,9 @@ static int upload(int argc, char **argv, int kind, const char *cmd)
     return rc;
 }
 
-int cmd_lut_upload(int argc, char **argv) { return upload(argc, argv, WDR_KIND_LUT, "lut upload"); }
+int cmd_lut_upload(int argc, char **argv) { return upload(argc, argv, WDR_KIND_LUT, &wdrctl_cmd_lut_upload); }
 
-int cmd_cal_upload(int argc, char **argv) { return upload(argc, argv, WDR_KIND_CAL, "cal upload"); }
+int cmd_cal_upload(int argc, char **argv) { return upload(argc, argv, WDR_KIND_CAL, &wdrctl_cmd_cal_upload); }
 
 /* ---- Small requests ------------------------------------------------------------------------------- */
 
@@ -477,7 +448,7 @@ static int simple_request(dev_opts *o, uint8_t opcode, const uint8_t *payload, u
 int cmd_lut_select(int argc, char **argv)
 {
     dev_opts o;
-    int rc = parse_opts(argc, argv, "lut select", 0, 1, 1, &o);
+    int rc = parse_opts(argc, argv, &wdrctl_cmd_lut_select, &o);
     if (rc != EX_OK)
         return rc;
     const char *s = o.args[0];
@@ -491,11 +462,9 @@ int cmd_integration(int argc, char **argv)
 {
     dev_opts o;
     double ns = 0;
-    int rc = parse_opts(argc, argv, "integration", 0, 1, 1, &o);
-    if (rc != EX_OK || (rc = parse_double("integration", "NS", o.args[0], &ns)) != EX_OK)
+    int rc = parse_opts(argc, argv, &wdrctl_cmd_integration, &o);
+    if (rc != EX_OK || (rc = parse_arg("integration", "NS (0: the LUT's own)", o.args[0], 0, 4294967295.0, &ns)) != EX_OK)
         return rc;
-    if (ns < 0 || ns > 4294967295.0)
-        return wdrctl_fail(EX_USAGE, "integration: NS must be 0..4294967295 (0: the LUT's own), got %s", o.args[0]);
     uint8_t p[4];
     wdr_put_u32(p, (uint32_t)ns);
     return simple_request(&o, WDR_CMD_SET_INTEGRATION, p, 4, "integration time set");
@@ -504,7 +473,7 @@ int cmd_integration(int argc, char **argv)
 int cmd_exposure(int argc, char **argv)
 {
     dev_opts o;
-    int rc = parse_opts(argc, argv, "exposure", 0, 1, 1, &o);
+    int rc = parse_opts(argc, argv, &wdrctl_cmd_exposure, &o);
     if (rc != EX_OK)
         return rc;
     uint8_t mode = !strcmp(o.args[0], "auto") ? 1 : 0;
@@ -518,11 +487,9 @@ int cmd_sim_illuminant(int argc, char **argv)
     dev_opts o;
     wdrctl_conn conn;
     double amps = 0;
-    int rc = parse_opts(argc, argv, "sim illuminant", 0, 1, 1, &o);
-    if (rc != EX_OK || (rc = parse_double("sim illuminant", "AMPS", o.args[0], &amps)) != EX_OK)
+    int rc = parse_opts(argc, argv, &wdrctl_cmd_sim_illuminant, &o);
+    if (rc != EX_OK || (rc = parse_arg("sim illuminant", "AMPS", o.args[0], 0, HUGE_VAL, &amps)) != EX_OK)
         return rc;
-    if (amps < 0)
-        return wdrctl_fail(EX_USAGE, "sim illuminant: AMPS must be >= 0, got %s", o.args[0]);
     if ((rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
     int r = wdr_client_set_illuminant(conn.c, amps);
@@ -655,8 +622,7 @@ int cmd_capture(int argc, char **argv)
 {
     dev_opts o;
     wdrctl_conn conn;
-    int rc = parse_opts(argc, argv, "capture", OPT_OUT | OPT_COUNT | OPT_BITS | OPT_RAW | OPT_AVERAGE | OPT_NEGATE, 0,
-                        0, &o);
+    int rc = parse_opts(argc, argv, &wdrctl_cmd_capture, &o);
     if (rc != EX_OK || (rc = check_output_name("capture", o.out)) != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
     o.count = o.count ? o.count : 1;
@@ -705,7 +671,7 @@ int cmd_stream(int argc, char **argv)
 {
     dev_opts o;
     wdrctl_conn conn;
-    int rc = parse_opts(argc, argv, "stream", OPT_COUNT | OPT_SECONDS, 0, 0, &o);
+    int rc = parse_opts(argc, argv, &wdrctl_cmd_stream, &o);
     if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
     uint16_t *codes = malloc((size_t)conn.c->info.width * conn.c->info.height * sizeof *codes);

@@ -385,12 +385,25 @@ static int report_outputs(report *rp)
     return rc;
 }
 
+static const cli_option fpn_report_rows[] = {
+    {"outdir", 0, CLI_STRING, CAL_O(outdir), "DIR", "where the report goes (fpn.json, plots, test images)",
+     .flags = CLI_REQUIRED},
+    {"models", 0, CLI_STRING, CAL_O(models), "A,B,..", "models to compare (default spline,simple3,complex4)"},
+    CAL_ROW_BOARD, CAL_ROW_OPERATOR, CAL_ROW_ADC, CAL_ROW_DAC, CAL_ROW_SAMPLE, CAL_ROW_SEED, CAL_ROW_OUT_SCALE,
+    CAL_ROW_JSON, {0}};
+
+const cli_command wdrctl_cmd_fpn_report = {
+    "fpn report", NULL, 0, 0,
+    "FPN contrast error before and after, model error, DSNU/PRNU, histograms and test images",
+    "Calibrates the simulated chip with every model and reports (the paper's Fig. 4-8).", fpn_report_rows,
+    cmd_fpn_report, 0};
+
 int cmd_fpn_report(int argc, char **argv)
 {
     report *rp = calloc(1, sizeof *rp);
     if (!rp)
         return wdrctl_fail(EX_OSERR, "out of memory");
-    int rc = cal_parse_options(argc, argv, "fpn report", &rp->o);
+    int rc = cal_parse_options(argc, argv, &wdrctl_cmd_fpn_report, &rp->o);
     if (rc == EX_OK && !wdr_operator_info_by_name(rp->o.op_name))
         rc = wdrctl_fail(EX_USAGE, "fpn report: unknown operator '%s' (see 'wdrctl operators')", rp->o.op_name);
     if (rc == EX_OK)

@@ -9,8 +9,8 @@
 #include "wdr_scene.h"
 #include "wdrctl.h"
 #include <cJSON.h>
-#include <getopt.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,12 +20,16 @@
 #define CHECK_CURRENTS 2001
 
 typedef struct lut_opts {
-    const char *op_name, *board, *out, *csv, *plot, *curve, *scene_image, *scene;
+    const char *op_name, *board, *out, *csv, *plot, *curve, *scene_image, *scene, *exposure_text;
     wdr_exposure exposure;
     const char *params[16];
     int n_params, json, repair, timing, entries, dac_bits;
     double l_avg, l_max, l_min;
 } lut_opts;
+
+typedef struct lut_plots_opts {
+    const char *board, *outdir;
+} lut_plots_opts;
 
 /* ---- wdrctl operators ---- */
 
@@ -39,8 +43,9 @@ static void print_param(const wdr_param_info *p)
 
 int cmd_operators(int argc, char **argv)
 {
-    (void)argc;
-    (void)argv;
+    int n_args = 0, rc = wdrctl_parse(&wdrctl_cmd_operators, argc, argv, &(char){0}, &n_args);
+    if (rc != EX_OK)
+        return rc;
     for (int id = 0; id < WDR_OP_COUNT; id++) {
         const wdr_operator_info *info = wdr_operator_info_by_id(id);
         printf("%-18s %s\n", info->name, info->doc);
@@ -52,97 +57,64 @@ int cmd_operators(int argc, char **argv)
     return EX_OK;
 }
 
-/* ---- option parsing ---- */
+/* ---- options: one row each (cli_options.h) ---- */
 
-static int parse_number(const char *opt, const char *text, double *out)
-{
-    char *end;
-    double v = strtod(text, &end);
-    if (end == text || *end || !isfinite(v))
-        return wdrctl_fail(EX_USAGE, "option %s: '%s' is not a finite number", opt, text);
-    *out = v;
-    return EX_OK;
-}
+#define O(f) offsetof(lut_opts, f)
+static const cli_choice timings[] = {{"uniform", WDR_TIMING_UNIFORM}, {"stamped", WDR_TIMING_STAMPED}, {NULL, 0}};
+static const cli_option lut_build_rows[] = {
+    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (see 'wdrctl operators')",
+     .flags = CLI_REQUIRED},
+    {"output", 'o', CLI_STRING, O(out), "LUT.bin", "where the table goes", .flags = CLI_REQUIRED},
+    {"param", 0, CLI_LIST, O(params), "KEY=VALUE", "an operator parameter", .max = 16, .count = O(n_params)},
+    {"board", 0, CLI_STRING, O(board), "FILE", "a board name in boards/ or a board.json (default: the build's -DWDR_BOARD)"},
+    {"csv", 0, CLI_STRING, O(csv), "FILE", "the table as t_s,code,v_ref_V"},
+    {"plot", 0, CLI_STRING, O(plot), "FILE.png", "V_ref(t) and the pixel's response (gnuplot)"},
+    {"json", 0, CLI_FLAG, O(json), NULL, "print the operator, scene, sensor and worst error as JSON"},
+    {"repair", 0, CLI_FLAG, O(repair), NULL, "make an unrealisable operator realisable, and report the change"},
+    {"timing", 0, CLI_CHOICE, O(timing), NULL, "DAC clock: uniform ticks or time stamps (default: the board's)",
+     .choices = timings, .what = "timing"},
+    {"entries", 0, CLI_INT, O(entries), "N", "entries of a uniform-clock table (default: the board's)", .min = 1,
+     .max = 65536},
+    {"dac-bits", 0, CLI_INT, O(dac_bits), "N", "DAC resolution (default: the board's)", .min = 1, .max = 16},
+    {"curve", 0, CLI_STRING, O(curve), "FILE.csv", "the user curve of operator user_curve"},
+    {"l-avg", 0, CLI_DOUBLE, O(l_avg), "X", "scene average luminance, cd/m2"},
+    {"l-max", 0, CLI_DOUBLE, O(l_max), "X", "scene maximum luminance, cd/m2"},
+    {"l-min", 0, CLI_DOUBLE, O(l_min), "X", "scene minimum luminance, cd/m2"},
+    {"scene-image", 0, CLI_STRING, O(scene_image), "HDR", "take L_avg, L_max, L_min from an HDR image"},
+    {"scene", 0, CLI_STRING, O(scene), "FILE", "take the statistics from a scene file, as the sensor sees it"},
+    {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A", "with --scene: auto (log-average to the ramp's key) or A per cd/m2"},
+    {0}};
+#undef O
 
-static int parse_timing(const char *text, int *timing)
-{
-    if (!strcmp(text, "uniform"))
-        *timing = WDR_TIMING_UNIFORM;
-    else if (!strcmp(text, "stamped"))
-        *timing = WDR_TIMING_STAMPED;
-    else
-        return wdrctl_fail(EX_USAGE, "option --timing: '%s' is not uniform or stamped", text);
-    return EX_OK;
-}
+const cli_command wdrctl_cmd_lut_build = {
+    "lut build", NULL, 0, 0, "build the DAC ramp table of an operator, checked against the ideal pixel",
+    "Refuses an operator that cannot be realised as a rising ramp over the board's photocurrent range and names "
+    "the failing range; --repair makes it realisable instead.",
+    lut_build_rows, cmd_lut_build, 0};
 
-static int parse_lut_option(int c, lut_opts *o)
-{
-    double v = 0;
-    int rc = EX_OK;
-    switch (c) {
-    case 'p':
-        if (o->n_params == 16)
-            return wdrctl_fail(EX_USAGE, "too many --param options");
-        o->params[o->n_params++] = optarg;
-        break;
-    case 'O': o->op_name = optarg; break;
-    case 'b': o->board = optarg; break;
-    case 'o': o->out = optarg; break;
-    case 'c': o->csv = optarg; break;
-    case 'P': o->plot = optarg; break;
-    case 'u': o->curve = optarg; break;
-    case 'S': o->scene_image = optarg; break;
-    case 'C': o->scene = optarg; break;
-    case 'X':
-        if (wdr_exposure_parse(optarg, &o->exposure))
-            return wdrctl_fail(EX_USAGE, "option --exposure: '%s' must be auto or A per cd/m2 in (0, 1]", optarg);
-        break;
-    case 'j': o->json = 1; break;
-    case 'r': o->repair = 1; break;
-    case 't': rc = parse_timing(optarg, &o->timing); break;
-    case 'e':
-    case 'd':
-        if ((rc = parse_number(c == 'e' ? "--entries" : "--dac-bits", optarg, &v)) == EX_OK) {
-            if (v != floor(v) || v < 1 || v > 65536)
-                return wdrctl_fail(EX_USAGE, "option %s: %s is out of range", c == 'e' ? "--entries" : "--dac-bits",
-                                   optarg);
-            *(c == 'e' ? &o->entries : &o->dac_bits) = (int)v;
-        }
-        break;
-    case 'A': rc = parse_number("--l-avg", optarg, &o->l_avg); break;
-    case 'M': rc = parse_number("--l-max", optarg, &o->l_max); break;
-    case 'N': rc = parse_number("--l-min", optarg, &o->l_min); break;
-    default: return EX_USAGE;
-    }
-    return rc;
-}
+static const cli_option lut_plots_rows[] = {
+    {"board", 0, CLI_STRING, offsetof(lut_plots_opts, board), "FILE", "a board name in boards/ or a board.json (default: the build's -DWDR_BOARD)"},
+    {"outdir", 0, CLI_STRING, offsetof(lut_plots_opts, outdir), "DIR", "where vref_all.png and response_all.png go (default .)"},
+    {0}};
+
+const cli_command wdrctl_cmd_lut_plots = {"lut plots", NULL, 0, 0,
+                                          "V_ref(t) and the response of every operator on two charts (paper Fig. 2, 3)",
+                                          NULL, lut_plots_rows, cmd_lut_plots, 0};
+
+static const cli_option no_rows[] = {{0}};
+const cli_command wdrctl_cmd_operators = {"operators", NULL, 0, 0, "list tone-mapping operators, parameters and defaults",
+                                          NULL, no_rows, cmd_operators, 0};
 
 static int parse_lut_opts(int argc, char **argv, lut_opts *o)
 {
-    static const struct option longopts[] = {
-        {"operator", required_argument, 0, 'O'}, {"param", required_argument, 0, 'p'},
-        {"board", required_argument, 0, 'b'},    {"csv", required_argument, 0, 'c'},
-        {"plot", required_argument, 0, 'P'},     {"json", no_argument, 0, 'j'},
-        {"repair", no_argument, 0, 'r'},         {"timing", required_argument, 0, 't'},
-        {"entries", required_argument, 0, 'e'},  {"dac-bits", required_argument, 0, 'd'},
-        {"curve", required_argument, 0, 'u'},    {"l-avg", required_argument, 0, 'A'},
-        {"l-max", required_argument, 0, 'M'},    {"l-min", required_argument, 0, 'N'},
-        {"scene-image", required_argument, 0, 'S'}, {"scene", required_argument, 0, 'C'},
-        {"exposure", required_argument, 0, 'X'},
-        {0, 0, 0, 0}};
+    int n_args;
     memset(o, 0, sizeof *o);
     o->timing = -1;
     o->l_avg = o->l_max = o->l_min = NAN;
-    optind = 1;
-    int c, rc;
-    while ((c = getopt_long(argc, argv, "o:", longopts, NULL)) != -1)
-        if ((rc = parse_lut_option(c, o)) != EX_OK)
-            return rc;
-    if (optind < argc)
-        return wdrctl_fail(EX_USAGE, "unexpected argument '%s'", argv[optind]);
-    if (!o->op_name)
-        return wdrctl_fail(EX_USAGE, "lut build needs --operator NAME (see 'wdrctl operators')");
-    return EX_OK;
+    int rc = wdrctl_parse(&wdrctl_cmd_lut_build, argc, argv, o, &n_args);
+    if (rc == EX_OK && o->exposure_text && wdr_exposure_parse(o->exposure_text, &o->exposure))
+        return wdrctl_fail(EX_USAGE, "option --exposure: '%s' must be auto or A per cd/m2 in (0, 1]", o->exposure_text);
+    return rc;
 }
 
 /* ---- building ---- */
@@ -420,8 +392,6 @@ int cmd_lut_build(int argc, char **argv)
     static wdr_operator op; /* large: holds the user curve */
     lut_result r = {0};
     int rc = parse_lut_opts(argc, argv, &o);
-    if (rc == EX_OK && !o.out)
-        rc = wdrctl_fail(EX_USAGE, "lut build needs -o LUT.bin");
     if (rc == EX_OK)
         rc = load_board(o.board, &b);
     if (rc == EX_OK && o.dac_bits)
@@ -476,18 +446,15 @@ static int plot_all_script(const char *outdir, const char *dir, const int *ok)
 
 int cmd_lut_plots(int argc, char **argv)
 {
-    const char *outdir = ".", *board = NULL;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--outdir") && i + 1 < argc)
-            outdir = argv[++i];
-        else if (!strcmp(argv[i], "--board") && i + 1 < argc)
-            board = argv[++i];
-        else
-            return wdrctl_fail(EX_USAGE, "lut plots: unknown argument '%s'", argv[i]);
-    }
+    lut_plots_opts po = {.outdir = "."};
+    int n_args, rc = wdrctl_parse(&wdrctl_cmd_lut_plots, argc, argv, &po, &n_args);
+    if (rc != EX_OK)
+        return rc;
+    const char *outdir = po.outdir;
     wdr_board b;
     char dir[512];
-    int rc = load_board(board, &b), ok[WDR_OP_COUNT] = {0};
+    int ok[WDR_OP_COUNT] = {0};
+    rc = load_board(po.board, &b);
     if (rc == EX_OK && wdr_plot_tmpdir(dir, sizeof dir))
         return wdrctl_fail(EX_CANTCREAT, "cannot create a temporary directory for plot data");
     for (int id = 0; rc == EX_OK && id < WDR_OP_COUNT; id++) {

@@ -8,6 +8,7 @@
 #include "wdr_scene.h"
 #include "wdrctl.h"
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,32 +21,33 @@ typedef struct tonemap_opts {
     wdr_exposure exposure;
 } tonemap_opts;
 
+#define O(f) offsetof(tonemap_opts, f)
+static const cli_option tonemap_rows[] = {
+    {"scene", 0, CLI_STRING, O(scene), "FILE", "the scene (sim/scenes/*.json)", .flags = CLI_REQUIRED},
+    {"output", 'o', CLI_STRING, O(out), "SOFT.png", "the scene tone-mapped in software", .flags = CLI_REQUIRED},
+    {"board", 0, CLI_STRING, O(board), "FILE", "board: a name in boards/ or a board.json file"},
+    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (default reinhard)"},
+    {"param", 0, CLI_LIST, O(params), "KEY=VALUE", "an operator parameter", .max = 16, .count = O(n_params)},
+    {"scene-image", 0, CLI_STRING, O(scene_image), "HDR", "take L_avg, L_max, L_min from an HDR image"},
+    {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A", "scene scale: auto (log-average to the ramp's key) or A per cd/m2"},
+    {"capture", 0, CLI_STRING, O(capture), "CAP.pfm", "a capture of the scene (with --side-by-side)"},
+    {"side-by-side", 0, CLI_STRING, O(side), "OUT.png", "the capture beside the software image (with --capture)"},
+    {0}};
+#undef O
+
+const cli_command wdrctl_cmd_tonemap = {"tonemap", NULL, 0, 0,
+                                        "the scene tone-mapped in software, and a capture beside it", NULL,
+                                        tonemap_rows, cmd_tonemap, 0};
+
 static int parse_tonemap(int argc, char **argv, tonemap_opts *o)
 {
+    int n_args;
     memset(o, 0, sizeof *o);
     o->op_name = "reinhard";
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        const char **slot = !strcmp(a, "--board")        ? &o->board
-                            : !strcmp(a, "--scene")      ? &o->scene
-                            : !strcmp(a, "--operator")   ? &o->op_name
-                            : !strcmp(a, "--capture")    ? &o->capture
-                            : !strcmp(a, "-o")           ? &o->out
-                            : !strcmp(a, "--side-by-side") ? &o->side
-                            : !strcmp(a, "--scene-image") ? &o->scene_image
-                            : !strcmp(a, "--exposure")   ? &o->exposure_text
-                            : !strcmp(a, "--param") && o->n_params < 16 ? &o->params[o->n_params++]
-                                                                        : NULL;
-        if (!slot || !v)
-            return wdrctl_fail(EX_USAGE, "tonemap: bad or incomplete argument '%s'", a);
-        *slot = v;
-        i++;
-    }
-    if (o->exposure_text && wdr_exposure_parse(o->exposure_text, &o->exposure))
+    int rc = wdrctl_parse(&wdrctl_cmd_tonemap, argc, argv, o, &n_args);
+    if (rc == EX_OK && o->exposure_text && wdr_exposure_parse(o->exposure_text, &o->exposure))
         return wdrctl_fail(EX_USAGE, "tonemap: --exposure '%s' must be auto or A per cd/m2 in (0, 1]", o->exposure_text);
-    if (!o->scene || !o->out)
-        return wdrctl_fail(EX_USAGE, "tonemap needs --scene FILE and -o OUT.png");
-    return EX_OK;
+    return rc;
 }
 
 static int load_inputs(const tonemap_opts *o, wdr_board *b, wdr_scene *sc, wdr_operator *op)

@@ -1,4 +1,6 @@
-/* wdrctl: the host tool. One dispatch table; each command group lives in its own file. */
+/* wdrctl: the host tool. The commands' tables (each in its cmd_*.c) and the global options;
+ * host/lib/cli_options.c does the parsing, help, man page and completion from them. */
+#include "transport_client.h"
 #include "wdrctl.h"
 #include <stdarg.h>
 #include <stdio.h>
@@ -6,45 +8,55 @@
 #include <string.h>
 #include <unistd.h>
 
-static const wdrctl_command commands[] = {
-    {NULL, "operators", cmd_operators, "list tone-mapping operators, parameters and defaults"},
-    {"lut", "build", cmd_lut_build,
-     "--operator NAME [--param key=value]... [--board FILE] -o LUT.bin [--csv FILE] [--plot FILE.png] [--json]\n"
-     "            [--repair] [--timing uniform|stamped] [--entries N] [--dac-bits N] [--curve FILE.csv]\n"
-     "            [--l-avg X] [--l-max X] [--l-min X] [--scene-image HDR | --scene FILE [--exposure auto|A]]"},
-    {"lut", "plots", cmd_lut_plots, "[--board FILE] [--outdir DIR]  V_ref(t) and response of every operator"},
-    {NULL, "tonemap", cmd_tonemap,
-     "--scene FILE [--board B] [--operator NAME] [--param k=v]... [--scene-image HDR] [--exposure auto|A]\n"
-     "            -o SOFT.png"
-     "            [--capture CAP.pfm --side-by-side OUT.png]"},
-    /* Board commands take [--device sim:/path.sock|usb[:BUS-ADDR]] (default $WDR_DEVICE),
-     * [--timeout MS] [--retries N] [--wait MS] (wait for a board that is starting). */
-    {NULL, "devices", cmd_devices, "list wdrcam USB boards, and the simulated one given by --device"},
-    {NULL, "info", cmd_info, "[--json]  board identity and protocol version"},
-    {NULL, "status", cmd_status, "[--json]  state, active tables, counters"},
-    {"lut", "upload", cmd_lut_upload, "LUT.bin [--no-verify]  store a LUT in flash and play it"},
-    {"lut", "select", cmd_lut_select, "A|B|newest  play the LUT of a slot"},
-    {"cal", "upload", cmd_cal_upload, "CAL.bin [--no-verify]  store a calibration table in flash and apply it"},
-    {NULL, "integration", cmd_integration, "NS  integration time (0: the LUT's own)"},
-    {NULL, "exposure", cmd_exposure, "auto|fixed  the board retimes its ramp to the scene (LUT 1.1 exposure table)"},
-    {NULL, "capture", cmd_capture,
-     "[-n N] -o FILE.png|FILE.pfm [--bits 8|16] [--raw] [--negate] [--average]  N frames (numbered files)"},
-    {NULL, "stream", cmd_stream, "[-n N] [--seconds S]  frames back to back, one line each, until Ctrl-C"},
-    {"sim", "illuminant", cmd_sim_illuminant, "AMPS  light every pixel of a simulated board uniformly"},
-    /* Calibration (cmd_cal.c): a board with --device or $WDR_DEVICE, else the simulator directly. */
-    {NULL, "calibrate", cmd_calibrate,
-     "[--model spline|simple3|complex4|lsq|polymap] [--currents A,B,..|--levels-file F|--select N] [--frames M]\n"
-     "            [--board FILE] [--operator NAME] [--adc on|off] [--dac on|off]\n"
-     "            [--device ADDR [--lut LUT.bin] [--upload]] [--out-scale 1..16]\n"
-     "            [--form moebius|poly|basis]\n"
-     "            -o CAL.bin [--json]"},
-    {"fpn", "report", cmd_fpn_report,
-     "--outdir DIR [--models spline,simple3,complex4] [--board FILE] [--operator NAME] [--adc on|off]\n"
-     "            [--dac on|off] [--json]  FPN contrast error, model error, DSNU/PRNU, histograms, test image"},
-};
-#define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
+wdrctl_globals wdrctl_global;
 
-int wdrctl_fail(int code, const char *fmt, ...)
+#define G(f) offsetof(wdrctl_globals, f)
+static const cli_option global_rows[] = {
+    {"device", 0, CLI_STRING, G(device), "ADDR", "the board: sim:/path.sock, usb or usb:BUS-ADDR (default: $WDR_DEVICE)"},
+    {"timeout", 0, CLI_INT, G(timeout_ms), "MS", "reply timeout per request attempt (default 2000)", .min = 1,
+     .max = 3600000},
+    {"retries", 0, CLI_INT, G(retries), "N", "extra attempts after a timeout or a garbled reply (default 2)", .min = 0,
+     .max = 100},
+    {"wait", 0, CLI_INT, G(wait_ms), "MS", "keep looking this long for a board that is starting (default 0)",
+     .min = 0, .max = 3600000},
+    {0}};
+#undef G
+
+static const cli_command *const commands[] = {
+    &wdrctl_cmd_operators, &wdrctl_cmd_lut_build, &wdrctl_cmd_lut_plots, &wdrctl_cmd_lut_upload,
+    &wdrctl_cmd_lut_select, &wdrctl_cmd_tonemap, &wdrctl_cmd_devices, &wdrctl_cmd_info, &wdrctl_cmd_status,
+    &wdrctl_cmd_cal_upload, &wdrctl_cmd_integration, &wdrctl_cmd_exposure, &wdrctl_cmd_capture, &wdrctl_cmd_stream,
+    &wdrctl_cmd_sim_illuminant, &wdrctl_cmd_calibrate, &wdrctl_cmd_fpn_report, NULL};
+
+static const cli_section sections[] = {
+    {"ENVIRONMENT", "WDR_DEVICE: the board when --device is not given.\n"
+                    "WDR_BOARDS_DIR: where board names are looked up (BOARDS_DIR/NAME/board.json).\n"
+                    "CI: when set (and not 'false'), no progress is drawn on a terminal."},
+    {"EXIT STATUS", "0 on success; otherwise a sysexits(3) code: 64 usage (a bad option or value), 65 bad data, "
+                    "66 an input that cannot be read, 69 no board, 70 internal error, 71 out of memory, 73 an "
+                    "output that cannot be created, 74 I/O error, 75 timeout or busy board, 76 protocol error, "
+                    "77 no permission, 78 bad configuration (a board file, no LUT on the board)."},
+    {"SEE ALSO", "wdrsim(1), wdr-simboard(1), wdr-board(1)"},
+    {NULL, NULL}};
+
+const cli_program wdrctl_program = {
+    .name = "wdrctl",
+    .summary = "build ramp tables, calibrate and drive wdrcam tone-mapping image sensor boards",
+    .description = "wdrctl builds the DAC ramp table (LUT) of a tone-mapping operator, calibrates the sensor's "
+                   "fixed-pattern noise, uploads tables to a board, captures and streams frames, and reports. "
+                   "A board is a real one over USB or a simulated one (wdr-simboard) over a local socket.",
+    .globals = global_rows,
+    .globals_size = sizeof(wdrctl_globals),
+    .commands = commands,
+    .sections = sections,
+};
+
+int wdrctl_parse(const cli_command *cmd, int argc, char **argv, void *opts, int *n_args)
+{
+    return cli_parse(&wdrctl_program, cmd, argc, argv, opts, n_args);
+}
+
+void wdrctl_message(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -52,7 +64,6 @@ int wdrctl_fail(int code, const char *fmt, ...)
     vfprintf(stderr, fmt, ap);
     fputc('\n', stderr);
     va_end(ap);
-    return code;
 }
 
 int wdrctl_show_progress(void)
@@ -61,28 +72,9 @@ int wdrctl_show_progress(void)
     return isatty(2) && !(ci && *ci && strcmp(ci, "false"));
 }
 
-static void usage(FILE *f)
-{
-    fprintf(f, "usage: wdrctl COMMAND [options]\n\ncommands:\n");
-    for (int i = 0; i < N_COMMANDS; i++)
-        fprintf(f, "  %s%s%s %s\n", commands[i].group ? commands[i].group : "", commands[i].group ? " " : "",
-                commands[i].name, commands[i].usage);
-}
-
 int main(int argc, char **argv)
 {
-    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
-        usage(argc < 2 ? stderr : stdout);
-        return argc < 2 ? EX_USAGE : EX_OK;
-    }
-    for (int i = 0; i < N_COMMANDS; i++) {
-        const wdrctl_command *c = &commands[i];
-        if (!c->group && !strcmp(argv[1], c->name))
-            return c->run(argc - 1, argv + 1);
-        if (c->group && !strcmp(argv[1], c->group) && argc > 2 && !strcmp(argv[2], c->name))
-            return c->run(argc - 2, argv + 2);
-    }
-    fprintf(stderr, "wdrctl: unknown command '%s%s%s'\n", argv[1], argc > 2 ? " " : "", argc > 2 ? argv[2] : "");
-    usage(stderr);
-    return EX_USAGE;
+    wdrctl_global = (wdrctl_globals){.device = getenv("WDR_DEVICE"), .timeout_ms = WDR_CLIENT_TIMEOUT_MS,
+                                     .retries = WDR_CLIENT_RETRIES};
+    return cli_main(&wdrctl_program, argc, argv, &wdrctl_global);
 }

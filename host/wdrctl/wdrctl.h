@@ -1,14 +1,32 @@
-/* wdrctl: command table and helpers shared by the command files. */
+/* wdrctl: the program's tables and helpers shared by the command files. Each command file
+ * defines its commands (wdrctl_cmd_*: name, summary, option table, run function); main.c lists
+ * them and holds the global options. */
 #ifndef WDRCTL_H
 #define WDRCTL_H
+#include "cli_options.h"
+#include <stddef.h>
 #include <sysexits.h>
 
-typedef struct wdrctl_command {
-    const char *group;   /* e.g. "lut", or NULL for a top-level command */
-    const char *name;    /* e.g. "build" */
-    int (*run)(int argc, char **argv); /* argv[0] is the command name; returns a sysexits code */
-    const char *usage;
-} wdrctl_command;
+/* Global options: before or after any command that talks to a board (main.c). */
+typedef struct wdrctl_globals {
+    const char *device; /* --device ADDR, default $WDR_DEVICE */
+    int timeout_ms;     /* --timeout MS per request */
+    int retries;        /* --retries N of a request that timed out */
+    int wait_ms;        /* --wait MS for a board that is starting */
+} wdrctl_globals;
+extern wdrctl_globals wdrctl_global;
+extern const cli_program wdrctl_program;
+
+/* Parse a command's argv by its table into opts (defaults set); positional arguments end up in
+ * argv[1..*n_args]. @return a sysexits code, the problem printed */
+int wdrctl_parse(const cli_command *cmd, int argc, char **argv, void *opts, int *n_args);
+
+/* The commands, in the order of `wdrctl --help`. */
+extern const cli_command wdrctl_cmd_operators, wdrctl_cmd_lut_build, wdrctl_cmd_lut_plots, wdrctl_cmd_tonemap;
+extern const cli_command wdrctl_cmd_devices, wdrctl_cmd_info, wdrctl_cmd_status, wdrctl_cmd_lut_upload,
+    wdrctl_cmd_lut_select, wdrctl_cmd_cal_upload, wdrctl_cmd_integration, wdrctl_cmd_exposure, wdrctl_cmd_capture, wdrctl_cmd_stream,
+    wdrctl_cmd_sim_illuminant;
+extern const cli_command wdrctl_cmd_calibrate, wdrctl_cmd_fpn_report;
 
 /* Commands, one per file group (cmd_*.c). */
 int cmd_operators(int argc, char **argv);
@@ -27,7 +45,7 @@ int cmd_capture(int argc, char **argv);
 int cmd_stream(int argc, char **argv);
 int cmd_sim_illuminant(int argc, char **argv);
 
-/* Calibration (cmd_cal.c). */
+/* Calibration (cmd_calibrate.c, cmd_fpn_report.c). */
 int cmd_calibrate(int argc, char **argv);
 int cmd_fpn_report(int argc, char **argv);
 
@@ -42,8 +60,10 @@ struct wdr_scene;
 struct wdr_board;
 int wdrctl_stats_from_scene(const struct wdr_scene *sc, const struct wdr_board *b, struct wdr_lum_stats *st);
 
-/* Print "wdrctl: " and a formatted message to stderr; returns code. */
-int wdrctl_fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Print "wdrctl: " and a formatted message to stderr; returns code. A macro so that the
+ * static analysers see the code come back (a function in another file hides it). */
+void wdrctl_message(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+#define wdrctl_fail(code, ...) (wdrctl_message(__VA_ARGS__), (code))
 
 /* Whether progress may be drawn (stderr is a terminal and CI is not set). */
 int wdrctl_show_progress(void);

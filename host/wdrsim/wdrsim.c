@@ -2,6 +2,7 @@
  * Writes PFM (codes as floats) or a 16-bit PNG; the report (parameters, exposure, floor and
  * ceiling fractions, effects) goes where --json says: stdout, or --json=FILE. No output may be
  * an input. Exit codes follow sysexits. */
+#include "cli_options.h"
 #include "image_io.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
@@ -11,6 +12,7 @@
 #include "wdr_sim.h"
 #include <cJSON.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,7 +22,7 @@
 #include <unistd.h>
 
 typedef struct options {
-    const char *board, *scene, *lut, *operator_name, *out, *json_path;
+    const char *board, *scene, *lut, *operator_name, *out, *json_path, *exposure_text;
     int json, threads, unquantised;
     wdr_exposure exposure;
     int have_seed, have_chip_seed;
@@ -42,81 +44,82 @@ static int fail(int code, const char *fmt, ...)
     return code;
 }
 
-static void usage(FILE *f)
-{
-    fprintf(f, "usage: wdrsim --board FILE --scene FILE (--lut LUT.bin | --operator NAME) [-o out.pfm|out.png]\n"
-               "              [--json | --json=REPORT.json] [--exposure auto|A_per_cd/m2]\n"
-               "              [--seed N] [--chip-seed N] [--threads N] [--unquantised]\n"
-               "              [--effect name=on|off|auto]...\n"
-               "effects: mismatch dark shot ktc read dac_quant adc_quant leakage clipping\n");
-}
+/* ---- arguments: one row each (host/lib/cli_options.h) ---- */
 
-/* ---- arguments ---- */
+#define O(f) offsetof(options, f)
+static const cli_option rows[] = {
+    {"board", 0, CLI_STRING, O(board), "FILE", "board: a name in boards/ or a board.json file", .flags = CLI_REQUIRED},
+    {"scene", 0, CLI_STRING, O(scene), "FILE", "the scene (sim/scenes/*.json)", .flags = CLI_REQUIRED},
+    {"lut", 0, CLI_STRING, O(lut), "LUT.bin", "the ramp table to play (or --operator)"},
+    {"operator", 0, CLI_STRING, O(operator_name), "NAME", "build the board's LUT of this operator (or --lut)"},
+    {"output", 'o', CLI_STRING, O(out), "OUT.pfm|OUT.png", "the frame (PFM: codes as floats; PNG: 16-bit)"},
+    {"json", 0, CLI_FLAG, O(json), NULL, "print the report (parameters, exposure, floor/ceiling, effects) as JSON"},
+    {"report", 0, CLI_STRING, O(json_path), "FILE", "write that report to FILE instead (also spelt --json=FILE)"},
+    {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A", "auto: the scene's log-average onto the ramp's key; or A per cd/m2"},
+    {"seed", 0, CLI_U64, O(seed), "N", "frame seed: temporal noise (default: the scene's)",
+     .given = CLI_GIVEN(options, have_seed)},
+    {"chip-seed", 0, CLI_U64, O(chip_seed), "N", "chip seed: fixed-pattern draw (default: the scene's)",
+     .given = CLI_GIVEN(options, have_chip_seed)},
+    {"threads", 0, CLI_INT, O(threads), "N", "render threads, 0: all cores", .min = 0, .max = 64},
+    {"unquantised", 0, CLI_FLAG, O(unquantised), NULL, "codes before the ADC rounds them"},
+    {"effect", 0, CLI_LIST, O(effects), "NAME=on|off|auto",
+     "force an effect: mismatch dark shot ktc read dac_quant adc_quant leakage clipping", .max = 32,
+     .count = O(n_effects)},
+    {0}};
+#undef O
 
-static int parse_u64(const char *flag, const char *text, uint64_t *out)
-{
-    char *end;
-    unsigned long long v = strtoull(text, &end, 0);
-    if (!*text || *end || text[0] == '-')
-        return fail(EX_USAGE, "%s: '%s' is not a non-negative integer", flag, text);
-    *out = v;
-    return EX_OK;
-}
+static const cli_command wdrsim_command = {NULL, NULL, 0, 0,
+                                           "render raw frames of a scene through a LUT on a board, without the firmware",
+                                           NULL, rows, NULL, 0};
 
-static int take_value(int argc, char **argv, int *i, const char **out)
-{
-    if (*i + 1 >= argc)
-        return fail(EX_USAGE, "%s needs a value", argv[*i]);
-    *out = argv[++*i];
-    return EX_OK;
-}
+static const cli_section sections[] = {
+    {"ENVIRONMENT", "WDR_BOARDS_DIR: where board names are looked up (BOARDS_DIR/NAME/board.json)."},
+    {"EXIT STATUS", "0 on success; otherwise a sysexits(3) code: 64 usage, 65 bad data, 66 an input that cannot be "
+                    "read, 70 internal error, 71 out of memory, 73 an output that cannot be created, 78 a bad "
+                    "board file."},
+    {"SEE ALSO", "wdrctl(1), wdr-simboard(1)"},
+    {NULL, NULL}};
 
-static int parse_flag(options *o, int argc, char **argv, int *i)
-{
-    const char *a = argv[*i], *v = NULL;
-    if (!strcmp(a, "--json"))
-        return o->json = 1, EX_OK;
-    if (!strncmp(a, "--json=", 7) && a[7])
-        return o->json = 1, o->json_path = a + 7, EX_OK;
-    if (!strcmp(a, "--unquantised"))
-        return o->unquantised = 1, EX_OK;
-    if (take_value(argc, argv, i, &v))
-        return EX_USAGE;
-    uint64_t n;
-    if (!strcmp(a, "--board")) o->board = v;
-    else if (!strcmp(a, "--scene")) o->scene = v;
-    else if (!strcmp(a, "--lut")) o->lut = v;
-    else if (!strcmp(a, "--operator")) o->operator_name = v;
-    else if (!strcmp(a, "-o")) o->out = v;
-    else if (!strcmp(a, "--exposure")) {
-        if (wdr_exposure_parse(v, &o->exposure))
-            return fail(EX_USAGE, "--exposure: '%s' must be auto or a scale in A per cd/m2 in (0, 1]", v);
-    } else if (!strcmp(a, "--seed")) return o->have_seed = 1, parse_u64(a, v, &o->seed);
-    else if (!strcmp(a, "--chip-seed")) return o->have_chip_seed = 1, parse_u64(a, v, &o->chip_seed);
-    else if (!strcmp(a, "--threads")) {
-        if (parse_u64(a, v, &n) || n > 64)
-            return fail(EX_USAGE, "--threads: '%s' must be 0 (all cores) to 64", v);
-        o->threads = (int)n;
-    } else if (!strcmp(a, "--effect")) {
-        if (o->n_effects == 32)
-            return fail(EX_USAGE, "too many --effect options");
-        o->effects[o->n_effects++] = v;
-    } else
-        return fail(EX_USAGE, "unknown option '%s'", a);
-    return EX_OK;
-}
+static const cli_program wdrsim_program = {
+    .name = "wdrsim",
+    .summary = "render raw frames of a scene through a LUT on a simulated sensor",
+    .description = "wdrsim runs the physical pixel-array simulator: the scene's light on the board's pixels, the "
+                   "ramp of a LUT, every effect the scene asks for (or --effect forces). It writes PFM (codes as "
+                   "floats) or a 16-bit PNG; the report (parameters, exposure, floor and ceiling fractions, effects) "
+                   "goes to stdout with --json, or to a file with --json=FILE. No output may be an input.",
+    .single = &wdrsim_command,
+    .sections = sections,
+};
 
-static int parse_args(options *o, int argc, char **argv)
+static int parse_args(options *o, int argc, char **argv, int *done)
 {
-    for (int i = 1; i < argc; i++) {
-        int rc = parse_flag(o, argc, argv, &i);
-        if (rc)
-            return rc;
-    }
-    if (!o->board || !o->scene || (!o->lut == !o->operator_name)) {
-        usage(stderr);
+    int n_args;
+    if (argc < 2) { /* nothing asked: say how to ask */
+        cli_print_program_help(stderr, &wdrsim_program);
         return fail(EX_USAGE, "need --board, --scene and one of --lut or --operator");
     }
+    /* --json=FILE is the short spelling of --report FILE: the table knows only the latter. */
+    char **args = calloc(2 * (size_t)argc, sizeof *args);
+    if (!args)
+        return fail(EX_OSERR, "out of memory");
+    int n = 0;
+    for (int i = 0; i < argc; i++) {
+        if (!strncmp(argv[i], "--json=", 7)) {
+            args[n++] = "--report";
+            args[n++] = argv[i] + 7;
+        } else
+            args[n++] = argv[i];
+    }
+    int rc = cli_main_single(&wdrsim_program, n, args, o, &n_args, done);
+    free(args);
+    if (rc != EX_OK || *done)
+        return rc;
+    if (o->json_path)
+        o->json = 1;
+    if (o->exposure_text && wdr_exposure_parse(o->exposure_text, &o->exposure))
+        return fail(EX_USAGE, "--exposure: '%s' must be auto or a scale in A per cd/m2 in (0, 1]", o->exposure_text);
+    if (!o->lut == !o->operator_name)
+        return fail(EX_USAGE, "need one of --lut or --operator (see 'wdrsim --help')");
     return EX_OK;
 }
 
@@ -351,15 +354,16 @@ static int run(const options *o, const wdr_board *b, wdr_scene *sc, const wdr_lu
 
 int main(int argc, char **argv)
 {
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")))
-        return usage(stdout), EX_OK;
     options o = {0};
+    int done = 0;
     wdr_board b;
     wdr_scene sc;
     wdr_lut_view lut;
     uint8_t *bytes = NULL;
     char err[1024], board_path[1024];
-    int rc = parse_args(&o, argc, argv);
+    int rc = parse_args(&o, argc, argv, &done);
+    if (rc || done)
+        return rc;
     if (!rc)
         rc = load_board(o.board, &b, board_path, sizeof board_path);
     if (!rc)

@@ -90,7 +90,7 @@ static void print_log(const e2e_board *e)
 /* Connect once the board listens; give up if it exits or the deadline passes. */
 static int connect_when_ready(e2e_board *e)
 {
-    char err[320];
+    char err[320] = "no attempt made";
     int64_t deadline = wdr_transport_now_ms() + START_DEADLINE_MS;
     while (wdr_transport_now_ms() < deadline) {
         if (wdr_transport_open(e->address, &e->t, err, sizeof err) == WDR_OK)
