@@ -1,0 +1,163 @@
+/* The per-pixel formulas of every table form, as static inline functions, shared by the firmware
+ * kernel (correct.c, integer codes in) and the host's float path (host/lib/correct_f32.c), so the
+ * two cannot drift apart: same operations in the same order, same bits. float32 and integers only. */
+#ifndef WDR_CORRECT_INLINE_H
+#define WDR_CORRECT_INLINE_H
+#include "wdr_cal.h"
+#include <stddef.h>
+#include <stdint.h>
+#if defined(__ARM_FEATURE_DSP)
+#include <arm_acle.h> /* __smlad: compiler intrinsic, no library */
+#endif
+
+/* One dispatch over the coefficient count: fn(cal, row, raw, out, n) with n a literal (so every
+ * loop unrolls), instantiated once per n, in a table indexed by n - 2 (wdr_cal_form_coeffs_ok
+ * has checked 2..8 before). */
+#define WDR_CORRECT_BY_N(table, fn, raw_t, out_t)                                                          \
+    static void fn##_2(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 2); }      \
+    static void fn##_3(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 3); }      \
+    static void fn##_4(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 4); }      \
+    static void fn##_5(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 5); }      \
+    static void fn##_6(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 6); }      \
+    static void fn##_7(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 7); }      \
+    static void fn##_8(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 8); }      \
+    static void (*const table[7])(const wdr_cal_view *, int, const raw_t *, out_t *) = {                   \
+        fn##_2, fn##_3, fn##_4, fn##_5, fn##_6, fn##_7, fn##_8}
+
+/* Scale to output codes and clamp: the comparisons also map NaN to 0, so nothing non-finite
+ * leaves the kernel whatever the input. */
+static inline float wdr_to_output(float v, float out_scale, float out_max)
+{
+    v *= out_scale;
+    v = v > 0.0f ? v : 0.0f;
+    return v < out_max ? v : out_max;
+}
+
+static inline float wdr_moebius(float y, float p, float q, float r) { return (p * y + q) / (r * y + 1.0f); }
+
+/* Horner over n coefficients; n is a literal at every call so the loop unrolls. */
+static inline float wdr_poly(const float *const *c, int i, float u, const int n)
+{
+    float v = c[n - 1][i];
+    for (int k = n - 2; k >= 0; k--)
+        v = v * u + c[k][i];
+    return v;
+}
+
+/* BASIS: the shared table's position of code y, clamped to [0, K-1] (comparisons: NaN goes to
+ * 0), split into a point index below K-1 and a fraction; the last point is reached with f = 1. */
+static inline int wdr_basis_point(float y, float a, float b, float last, float *f)
+{
+    float t = y * a + b;
+    t = t > 0.0f ? t : 0.0f;
+    t = t < last ? t : last;
+    int j = (int)t;
+    j = j < (int)last ? j : (int)last - 1;
+    *f = t - (float)j;
+    return j;
+}
+
+/* sum_k c_k B_k(t), each B_k linear between points j and j+1 (point-major: one cache line):
+ * the sums at both points, then one interpolation. Four partial sums, so the multiply-adds do
+ * not wait on each other. */
+static inline float wdr_basis_sum(const float *const *c, int i, const float *shared, int j, float f, const int n)
+{
+    const float *p0 = shared + j * n, *p1 = p0 + n;
+    float a0 = 0.0f, a1 = 0.0f, b0 = 0.0f, b1 = 0.0f;
+    int k = 0;
+    for (; k + 1 < n; k += 2) {
+        float ck = c[k][i], cl = c[k + 1][i];
+        a0 += ck * p0[k], a1 += cl * p0[k + 1];
+        b0 += ck * p1[k], b1 += cl * p1[k + 1];
+    }
+    if (k < n) {
+        a0 += c[k][i] * p0[k];
+        b0 += c[k][i] * p1[k];
+    }
+    float a = a0 + a1, b = b0 + b1;
+    return a + f * (b - a);
+}
+
+/* The coefficient planes of one row of a float form. */
+static inline void wdr_row_planes(const wdr_cal_view *cal, int row, const float **c, const int n)
+{
+    for (int k = 0; k < n; k++)
+        c[k] = wdr_cal_row_coeffs(cal, row, k);
+}
+
+/* ---- COMPACT: fixed point. Per raw code y, P_k(y) = round(scale_k out_scale 2^F B_k(t(y))) as
+ * int16 (|P| <= WDR_CAL_COMPACT_P_MAX); a pixel is sum_k q_k P_k(y) in int32 (two SMLAD), plus
+ * 2^(F-1), shifted right by F: the output code, rounded half up. The bounds keep the sum inside
+ * int32: 4 * 32767 * 16256 + 2^23 < 2^31. ---- */
+
+#define WDR_CAL_COMPACT_P_MAX 16256.0f
+#define WDR_CAL_COMPACT_MAX_SHIFT 24u
+
+/* F: the largest shift in 1..24 that keeps every |P| within WDR_CAL_COMPACT_P_MAX at the shared
+ * points (the codes interpolate between them; rounding past it is clamped). */
+static inline uint32_t wdr_compact_shift(const wdr_cal_view *cal)
+{
+    const float *scale = wdr_cal_compact_scales(cal);
+    float top = 0.0f;
+    for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++) {
+        float g = scale[k] * cal->h.out_scale;
+        for (uint32_t j = 0; j < cal->h.shared_points; j++) {
+            float v = cal->shared[j * WDR_CAL_COMPACT_COEFFS + k] * g;
+            v = v < 0.0f ? -v : v;
+            top = v > top ? v : top;
+        }
+    }
+    uint32_t f = 1;
+    while (f < WDR_CAL_COMPACT_MAX_SHIFT && top * (float)(1u << (f + 1u)) <= WDR_CAL_COMPACT_P_MAX)
+        f++;
+    return f;
+}
+
+/* g_k = scale_k out_scale 2^F: P_k(y) = round(g_k B_k(t(y))). */
+static inline void wdr_compact_gains(const wdr_cal_view *cal, uint32_t shift, float g[WDR_CAL_COMPACT_COEFFS])
+{
+    const float *scale = wdr_cal_compact_scales(cal);
+    for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++)
+        g[k] = scale[k] * cal->h.out_scale * (float)(1u << shift);
+}
+
+static inline uint32_t wdr_compact_q16(float x)
+{
+    x = x < WDR_CAL_COMPACT_P_MAX ? x : WDR_CAL_COMPACT_P_MAX;
+    x = x > -WDR_CAL_COMPACT_P_MAX ? x : -WDR_CAL_COMPACT_P_MAX;
+    return (uint16_t)(int16_t)(x < 0.0f ? x - 0.5f : x + 0.5f);
+}
+
+/* The two words (P0 | P1 << 16, P2 | P3 << 16) of code y. */
+static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_CAL_COMPACT_COEFFS], uint32_t y,
+                                     uint32_t out[2])
+{
+    const uint32_t n = WDR_CAL_COMPACT_COEFFS;
+    float f;
+    const float *p0 = cal->shared + (size_t)wdr_basis_point((float)y, cal->h.in_scale, cal->h.in_offset,
+                                                            (float)(cal->h.shared_points - 1u), &f) * n;
+    const float *p1 = p0 + n;
+    uint32_t q[WDR_CAL_COMPACT_COEFFS];
+    for (uint32_t k = 0; k < n; k++)
+        q[k] = wdr_compact_q16((p0[k] + f * (p1[k] - p0[k])) * g[k]);
+    out[0] = q[0] | q[1] << 16;
+    out[1] = q[2] | q[3] << 16;
+}
+
+/* acc + lo(a) lo(b) + hi(a) hi(b), signed 16-bit halves: one SMLAD on a DSP core. */
+static inline int32_t wdr_smlad(uint32_t a, uint32_t b, int32_t acc)
+{
+#if defined(__ARM_FEATURE_DSP)
+    return __smlad(a, b, acc);
+#else
+    return acc + (int32_t)(int16_t)a * (int16_t)b + (int32_t)(int16_t)(a >> 16) * (int16_t)(b >> 16);
+#endif
+}
+
+/* sum_k q_k P_k(y) + acc of a pixel's two coefficient words c and its code's point p. */
+static inline int32_t wdr_compact_dot(const uint32_t *c, const uint32_t *p, int32_t acc)
+{
+    return wdr_smlad(c[0], p[0], wdr_smlad(c[1], p[1], acc));
+}
+
+#endif
