@@ -27,18 +27,18 @@ size_t wdr_cal_size(uint16_t width, uint16_t height, uint16_t n_coeffs)
     return WDR_CAL_HEADER_SIZE + (size_t)height * wdr_cal_row_stride(width, n_coeffs);
 }
 
-/* COMPACT: K points of 4 functions, then the 4 coefficient scales. */
+/* COMPACT: K points of 4 functions, then the 4 coefficient scales and the 4 offsets. */
 uint32_t wdr_cal_shared_bytes(const wdr_cal_header *h)
 {
     if (h->form == WDR_FORM_COMPACT)
-        return (h->shared_points * WDR_CAL_COMPACT_COEFFS + WDR_CAL_COMPACT_COEFFS) * 4u;
+        return (h->shared_points * WDR_CAL_COMPACT_COEFFS + WDR_CAL_COMPACT_EXTRA) * 4u;
     return h->form == WDR_FORM_BASIS ? h->shared_points * h->n_coeffs * 4u : 0u;
 }
 
 size_t wdr_cal_size_compact(uint16_t width, uint16_t height, uint32_t shared_points)
 {
     return WDR_CAL_HEADER_SIZE + (size_t)height * wdr_cal_form_row_stride(WDR_FORM_COMPACT, width, 4u) +
-           ((size_t)shared_points + 1u) * WDR_CAL_COMPACT_COEFFS * 4u;
+           ((size_t)shared_points * WDR_CAL_COMPACT_COEFFS + WDR_CAL_COMPACT_EXTRA) * 4u;
 }
 
 size_t wdr_cal_size_basis(uint16_t width, uint16_t height, uint16_t n_coeffs, uint32_t shared_points)
@@ -89,7 +89,7 @@ int wdr_cal_shared_ok(const wdr_cal_header *h, const float *shared)
         return err;
     const float *scale = shared + (size_t)h->shared_points * WDR_CAL_COMPACT_COEFFS;
     for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++)
-        if (!finite_f(scale[k]) || !(scale[k] > 0.0f))
+        if (!finite_f(scale[k]) || !(scale[k] > 0.0f) || !finite_f(scale[WDR_CAL_COMPACT_COEFFS + k]))
             return WDR_E_NUMERIC;
     return WDR_OK;
 }
@@ -231,20 +231,25 @@ void wdr_cal_encode_basis(wdr_cal_header *h, const float *shared, const float *c
     seal(h, out);
 }
 
-/* Scale of coefficient k: its largest magnitude maps to WDR_CAL_COMPACT_Q_MAX. */
-static float compact_scale(const float *coeffs, size_t plane, uint32_t k)
+/* Offset and scale of coefficient k: the middle of its range over the table, and the half-range
+ * that maps to WDR_CAL_COMPACT_Q_MAX (what every pixel shares goes into the offset, so the int16
+ * keep only the spread between pixels). */
+static void compact_range(const float *coeffs, size_t plane, uint32_t k, float *offset, float *scale)
 {
-    float top = 0.0f;
-    for (size_t i = 0; i < plane; i++) {
-        float a = coeffs[k * plane + i] < 0.0f ? -coeffs[k * plane + i] : coeffs[k * plane + i];
-        top = a > top ? a : top;
+    float lo = coeffs[k * plane], hi = lo;
+    for (size_t i = 1; i < plane; i++) {
+        float c = coeffs[k * plane + i];
+        lo = c < lo ? c : lo;
+        hi = c > hi ? c : hi;
     }
-    return top > 0.0f ? top / (float)WDR_CAL_COMPACT_Q_MAX : 1.0f;
+    *offset = 0.5f * (lo + hi);
+    float half = hi - *offset > *offset - lo ? hi - *offset : *offset - lo;
+    *scale = half > 0.0f ? half / (float)WDR_CAL_COMPACT_Q_MAX : 1.0f;
 }
 
-static uint16_t compact_q(float c, float scale)
+static uint16_t compact_q(float c, float offset, float scale)
 {
-    float q = c / scale;
+    float q = (c - offset) / scale;
     q = q > (float)WDR_CAL_COMPACT_Q_MAX ? (float)WDR_CAL_COMPACT_Q_MAX : q;
     q = q < -(float)WDR_CAL_COMPACT_Q_MAX ? -(float)WDR_CAL_COMPACT_Q_MAX : q;
     return (uint16_t)(int16_t)(q < 0.0f ? q - 0.5f : q + 0.5f);
@@ -260,15 +265,19 @@ void wdr_cal_encode_compact(wdr_cal_header *h, const float *shared, const float 
     uint8_t *p = out + WDR_CAL_HEADER_SIZE;
     for (uint32_t j = 0; j < h->shared_points * n; j++, p += 4)
         wdr_put_f32(p, shared[j]);
-    float scale[WDR_CAL_COMPACT_COEFFS];
+    float scale[WDR_CAL_COMPACT_COEFFS], offset[WDR_CAL_COMPACT_COEFFS];
+    for (uint32_t k = 0; k < n; k++)
+        compact_range(coeffs, plane, k, &offset[k], &scale[k]);
     for (uint32_t k = 0; k < n; k++, p += 4)
-        wdr_put_f32(p, scale[k] = compact_scale(coeffs, plane, k));
+        wdr_put_f32(p, scale[k]);
+    for (uint32_t k = 0; k < n; k++, p += 4)
+        wdr_put_f32(p, offset[k]);
     const uint32_t stride = wdr_cal_form_row_stride(WDR_FORM_COMPACT, h->width, (uint16_t)n);
     memset(p, 0, (size_t)stride * h->height);
     for (uint32_t r = 0; r < h->height; r++, p += stride) {
         for (uint32_t c = 0; c < w; c++)
             for (uint32_t k = 0; k < n; k++)
-                wdr_put_u16(p + 2u * (c * n + k), compact_q(coeffs[k * plane + (size_t)r * w + c], scale[k]));
+                wdr_put_u16(p + 2u * (c * n + k), compact_q(coeffs[k * plane + (size_t)r * w + c], offset[k], scale[k]));
         memcpy(p + (size_t)n * w * 2u, flags + (size_t)r * w, w);
     }
     seal(h, out);
@@ -285,7 +294,7 @@ static int header_check(const wdr_cal_header *h)
     if (h->form == WDR_FORM_BASIS ? h->shared_points < 2 || h->shared_points * h->n_coeffs > WDR_CAL_MAX_SHARED_FLOATS
         : h->form == WDR_FORM_COMPACT
             ? h->shared_points < 2 ||
-                  ((uint64_t)h->shared_points + 1u) * WDR_CAL_COMPACT_COEFFS > WDR_CAL_MAX_SHARED_FLOATS
+                  (uint64_t)h->shared_points * WDR_CAL_COMPACT_COEFFS > WDR_CAL_MAX_SHARED_FLOATS
             : h->shared_points != 0)
         return WDR_E_INVAL;
     if (!finite_f(h->in_scale) || h->in_scale == 0.0f || !finite_f(h->in_offset))

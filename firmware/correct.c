@@ -198,11 +198,10 @@ static void compact_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *
 {
     const uint32_t *c = wdr_cal_row_compact(cal, row), *points = cal->code_q;
     const uint32_t top = cal->h.raw_max, shift = cal->code_shift, m = cal->h.out_max;
-    const int32_t bias = (int32_t)(1u << (shift - 1u));
     const int w = cal->h.width;
     for (int i = 0; i < w; i++) {
         uint32_t y = raw[i] < top ? raw[i] : top;
-        out[i] = compact_output(wdr_compact_dot(c + 2 * i, points + 2u * y, bias), shift, m);
+        out[i] = compact_output(wdr_compact_dot(c + 2 * i, points + 3u * y), shift, m);
     }
 }
 
@@ -216,13 +215,12 @@ static void compact_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, u
     }
     const uint32_t *c = wdr_cal_row_compact(cal, row);
     const uint32_t top = cal->h.raw_max, shift = wdr_compact_shift(cal), m = cal->h.out_max;
-    const int32_t bias = (int32_t)(1u << (shift - 1u));
-    float g[WDR_CAL_COMPACT_COEFFS];
+    float g[WDR_CAL_COMPACT_COEFFS + 1];
     wdr_compact_gains(cal, shift, g);
     for (int i = 0; i < cal->h.width; i++) {
-        uint32_t p[2];
-        wdr_compact_point(cal, g, raw[i] < top ? raw[i] : top, p);
-        out[i] = compact_output(wdr_compact_dot(c + 2 * i, p, bias), shift, m);
+        uint32_t p[3];
+        wdr_compact_point(cal, g, shift, raw[i] < top ? raw[i] : top, p);
+        out[i] = compact_output(wdr_compact_dot(c + 2 * i, p), shift, m);
     }
 }
 
@@ -232,13 +230,13 @@ int wdr_correct_per_code_compact(wdr_cal_view *cal, uint32_t *points, size_t cap
         cal->h.n_coeffs != WDR_CAL_COMPACT_COEFFS || cal->h.raw_max == 0)
         return WDR_E_INVAL;
     const uint32_t codes = (uint32_t)cal->h.raw_max + 1u;
-    if ((size_t)codes * 2u > capacity)
+    if ((size_t)codes * 3u > capacity)
         return WDR_E_TOO_LARGE;
     const uint32_t shift = wdr_compact_shift(cal);
-    float g[WDR_CAL_COMPACT_COEFFS];
+    float g[WDR_CAL_COMPACT_COEFFS + 1];
     wdr_compact_gains(cal, shift, g);
     for (uint32_t y = 0; y < codes; y++)
-        wdr_compact_point(cal, g, y, points + 2u * y);
+        wdr_compact_point(cal, g, shift, y, points + 3u * y);
     cal->code_q = points;
     cal->code_shift = shift;
     return WDR_OK;

@@ -85,63 +85,83 @@ static inline void wdr_row_planes(const wdr_cal_view *cal, int row, const float 
         c[k] = wdr_cal_row_coeffs(cal, row, k);
 }
 
-/* ---- COMPACT: fixed point. Per raw code y, P_k(y) = round(scale_k out_scale 2^F B_k(t(y))) as
- * int16 (|P| <= WDR_CAL_COMPACT_P_MAX); a pixel is sum_k q_k P_k(y) in int32 (two SMLAD), plus
- * 2^(F-1), shifted right by F: the output code, rounded half up. The bounds keep the sum inside
- * int32: 4 * 32767 * 16256 + 2^23 < 2^31. ---- */
+/* ---- COMPACT: fixed point, 2^-F output codes. Per raw code y, base(y) = round(out_scale 2^F
+ * sum_k offset_k B_k(t(y))) + 2^(F-1) (what every pixel shares, and the rounding half) and
+ * P_k(y) = round(scale_k out_scale 2^F B_k(t(y))) as int16; a pixel is base(y) + sum_k q_k P_k(y)
+ * in int32 (two SMLAD), shifted right by F: the output code, rounded half up. The bounds keep
+ * the sum inside int32: 2^30 + 4 * 32767 * 8128 < 2^31. ---- */
 
-#define WDR_CAL_COMPACT_P_MAX 16256.0f
+#define WDR_CAL_COMPACT_P_MAX 8128.0f
+#define WDR_CAL_COMPACT_BASE_MAX 1073741824.0f /* 2^30 */
 #define WDR_CAL_COMPACT_MAX_SHIFT 24u
 
-/* F: the largest shift in 1..24 that keeps every |P| within WDR_CAL_COMPACT_P_MAX at the shared
- * points (the codes interpolate between them; rounding past it is clamped). */
+static inline const float *wdr_compact_offsets(const wdr_cal_view *cal)
+{
+    return wdr_cal_compact_scales(cal) + WDR_CAL_COMPACT_COEFFS;
+}
+
+/* sum_k offset_k B_k at shared point j, in the order the kernel adds. */
+static inline float wdr_compact_base_at(const float *point, const float *offset)
+{
+    return ((point[0] * offset[0] + point[1] * offset[1]) + point[2] * offset[2]) + point[3] * offset[3];
+}
+
+/* F: the largest shift in 1..24 that keeps every |P| within WDR_CAL_COMPACT_P_MAX and every
+ * |base| within 2^30 at the shared points (codes interpolate between them; rounding past the
+ * bounds is clamped). */
 static inline uint32_t wdr_compact_shift(const wdr_cal_view *cal)
 {
-    const float *scale = wdr_cal_compact_scales(cal);
-    float top = 0.0f;
-    for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++) {
-        float g = scale[k] * cal->h.out_scale;
-        for (uint32_t j = 0; j < cal->h.shared_points; j++) {
-            float v = cal->shared[j * WDR_CAL_COMPACT_COEFFS + k] * g;
+    const float *scale = wdr_cal_compact_scales(cal), *offset = wdr_compact_offsets(cal);
+    float top_p = 0.0f, top_b = 0.0f;
+    for (uint32_t j = 0; j < cal->h.shared_points; j++) {
+        const float *point = cal->shared + j * WDR_CAL_COMPACT_COEFFS;
+        for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++) {
+            float v = point[k] * scale[k] * cal->h.out_scale;
             v = v < 0.0f ? -v : v;
-            top = v > top ? v : top;
+            top_p = v > top_p ? v : top_p;
         }
+        float b = wdr_compact_base_at(point, offset) * cal->h.out_scale;
+        b = b < 0.0f ? -b : b;
+        top_b = b > top_b ? b : top_b;
     }
     uint32_t f = 1;
-    while (f < WDR_CAL_COMPACT_MAX_SHIFT && top * (float)(1u << (f + 1u)) <= WDR_CAL_COMPACT_P_MAX)
+    while (f < WDR_CAL_COMPACT_MAX_SHIFT && top_p * (float)(1u << (f + 1u)) <= WDR_CAL_COMPACT_P_MAX &&
+           top_b * (float)(1u << (f + 1u)) <= WDR_CAL_COMPACT_BASE_MAX)
         f++;
     return f;
 }
 
-/* g_k = scale_k out_scale 2^F: P_k(y) = round(g_k B_k(t(y))). */
-static inline void wdr_compact_gains(const wdr_cal_view *cal, uint32_t shift, float g[WDR_CAL_COMPACT_COEFFS])
+/* g_k = scale_k out_scale 2^F (g[4] = out_scale 2^F for the base): P_k(y) = round(g_k B_k(t(y))). */
+static inline void wdr_compact_gains(const wdr_cal_view *cal, uint32_t shift, float g[WDR_CAL_COMPACT_COEFFS + 1])
 {
     const float *scale = wdr_cal_compact_scales(cal);
     for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++)
         g[k] = scale[k] * cal->h.out_scale * (float)(1u << shift);
+    g[WDR_CAL_COMPACT_COEFFS] = cal->h.out_scale * (float)(1u << shift);
 }
 
-static inline uint32_t wdr_compact_q16(float x)
-{
-    x = x < WDR_CAL_COMPACT_P_MAX ? x : WDR_CAL_COMPACT_P_MAX;
-    x = x > -WDR_CAL_COMPACT_P_MAX ? x : -WDR_CAL_COMPACT_P_MAX;
-    return (uint16_t)(int16_t)(x < 0.0f ? x - 0.5f : x + 0.5f);
-}
+static inline float wdr_clampf(float x, float top) { return x < top ? (x > -top ? x : -top) : top; }
 
-/* The two words (P0 | P1 << 16, P2 | P3 << 16) of code y. */
-static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_CAL_COMPACT_COEFFS], uint32_t y,
-                                     uint32_t out[2])
+static inline int32_t wdr_round_i32(float x) { return (int32_t)(x < 0.0f ? x - 0.5f : x + 0.5f); }
+
+/* The three words of code y: base(y) with the rounding half of 2^F, P0 | P1 << 16, P2 | P3 << 16. */
+static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_CAL_COMPACT_COEFFS + 1],
+                                     uint32_t shift, uint32_t y, uint32_t out[3])
 {
     const uint32_t n = WDR_CAL_COMPACT_COEFFS;
-    float f;
+    float f, b[WDR_CAL_COMPACT_COEFFS];
     const float *p0 = cal->shared + (size_t)wdr_basis_point((float)y, cal->h.in_scale, cal->h.in_offset,
                                                             (float)(cal->h.shared_points - 1u), &f) * n;
     const float *p1 = p0 + n;
     uint32_t q[WDR_CAL_COMPACT_COEFFS];
-    for (uint32_t k = 0; k < n; k++)
-        q[k] = wdr_compact_q16((p0[k] + f * (p1[k] - p0[k])) * g[k]);
-    out[0] = q[0] | q[1] << 16;
-    out[1] = q[2] | q[3] << 16;
+    for (uint32_t k = 0; k < n; k++) {
+        b[k] = p0[k] + f * (p1[k] - p0[k]);
+        q[k] = (uint16_t)(int16_t)wdr_round_i32(wdr_clampf(b[k] * g[k], WDR_CAL_COMPACT_P_MAX));
+    }
+    float base = wdr_clampf(wdr_compact_base_at(b, wdr_compact_offsets(cal)) * g[n], WDR_CAL_COMPACT_BASE_MAX);
+    out[0] = (uint32_t)(wdr_round_i32(base) + (int32_t)(1u << (shift - 1u)));
+    out[1] = q[0] | q[1] << 16;
+    out[2] = q[2] | q[3] << 16;
 }
 
 /* acc + lo(a) lo(b) + hi(a) hi(b), signed 16-bit halves: one SMLAD on a DSP core. */
@@ -154,10 +174,10 @@ static inline int32_t wdr_smlad(uint32_t a, uint32_t b, int32_t acc)
 #endif
 }
 
-/* sum_k q_k P_k(y) + acc of a pixel's two coefficient words c and its code's point p. */
-static inline int32_t wdr_compact_dot(const uint32_t *c, const uint32_t *p, int32_t acc)
+/* base(y) + sum_k q_k P_k(y) of a pixel's two coefficient words c and its code's point p. */
+static inline int32_t wdr_compact_dot(const uint32_t *c, const uint32_t *p)
 {
-    return wdr_smlad(c[0], p[0], wdr_smlad(c[1], p[1], acc));
+    return wdr_smlad(c[0], p[1], wdr_smlad(c[1], p[2], (int32_t)p[0]));
 }
 
 #endif

@@ -21,6 +21,8 @@
 /* COMPACT: coefficients per pixel (two SMLAD pairs), and the largest stored coefficient */
 #define WDR_CAL_COMPACT_COEFFS 4u
 #define WDR_CAL_COMPACT_Q_MAX 32767
+/* COMPACT: floats after the shared points: 4 coefficient scales, then 4 offsets */
+#define WDR_CAL_COMPACT_EXTRA 8u
 
 /* Per-pixel formula. Never renumber: tables in flash use these ids. */
 enum wdr_cal_form {
@@ -33,8 +35,9 @@ enum wdr_cal_form {
                               [0, K-1], v = sum_k c_k B_k(t), B_k interpolated linearly. The sharp
                               bends every pixel's map shares live in the shared table */
     WDR_FORM_COMPACT = 4,  /* BASIS with 4 functions and per-pixel int16 coefficients q_k (minor
-                              version 2): c_k = q_k * scale_k, 4 f32 scales after the shared points;
-                              9 bytes per pixel, a fixed-point kernel on the controller */
+                              version 2): c_k = offset_k + q_k * scale_k, 4 f32 scales and 4 f32
+                              offsets after the shared points; 9 bytes per pixel, a fixed-point
+                              kernel on the controller */
     WDR_FORM_COUNT
 };
 
@@ -76,7 +79,7 @@ typedef struct wdr_cal_header {
     uint16_t raw_max;      /* largest raw ADC code (2^bits - 1) */
     uint32_t bad_pixels;   /* number of pixels with a flag set */
     uint32_t shared_points;/* BASIS, COMPACT: K, points per basis function (2..WDR_CAL_MAX_SHARED_FLOATS / n;
-                              COMPACT: 2..(WDR_CAL_MAX_SHARED_FLOATS - 4) / 4);
+                              the COMPACT block holds 4 scales more);
                               zero for the other forms (minor version 0: reserved, zero) */
     uint32_t reserved;     /* zero */
     uint32_t payload_len;  /* bytes after the header: shared block + height * row_stride */
@@ -90,14 +93,16 @@ typedef struct wdr_cal_header {
  * BASIS tables carry a shared block before the first row: K points of n float32 each, point-major
  * (shared[j * n + k] = B_k at point j), so one pixel's lookups share a cache line.
  * COMPACT rows are pixel-major instead: 4 int16 per pixel (q0 q1 q2 q3, 8 bytes, two words a
- * pixel for the kernel's SMLAD pairs), then the flags; its shared block ends with 4 f32 scales. */
+ * pixel for the kernel's SMLAD pairs), then the flags; its shared block ends with 4 f32 scales
+ * and 4 f32 offsets. */
 typedef struct wdr_cal_view {
     wdr_cal_header h;
     const uint8_t *payload; /* first row; NULL for the identity */
     uint32_t row_stride;
     const float *shared;    /* BASIS, COMPACT: the shared block (a firmware may point it at a RAM copy); else NULL */
-    /* COMPACT after wdr_correct_per_code_compact: per raw code 2 words of int16 pairs (the kernel's
-     * fixed-point points, 2^-code_shift output codes), else NULL (computed per pixel) */
+    /* COMPACT after wdr_correct_per_code_compact: per raw code 3 words, the offsets' base and two
+     * int16 pairs (the kernel's fixed-point points, 2^-code_shift output codes), else NULL
+     * (computed per pixel) */
     const uint32_t *code_q;
     uint32_t code_shift;
 } wdr_cal_view;
@@ -164,7 +169,8 @@ void wdr_cal_encode_basis(wdr_cal_header *h, const float *shared, const float *c
                           uint8_t *out);
 /* The same for a COMPACT table (h->shared_points set; form and n_coeffs are filled here): shared
  * as for BASIS with 4 functions, coeffs as for wdr_cal_encode; each coefficient k is quantised to
- * int16 q = round(c / scale_k) with scale_k = max |c_k| / 32767 over the table (1 if all zero);
+ * int16 q = round((c - offset_k) / scale_k), offset_k the middle of c_k's range over the table and
+ * scale_k its half-range / 32767 (1 if all equal);
  * out holds wdr_cal_size_compact(...) bytes. */
 void wdr_cal_encode_compact(wdr_cal_header *h, const float *shared, const float *coeffs, const uint8_t *flags,
                             uint8_t *out);

@@ -78,17 +78,18 @@ WDR_CORRECT_BY_N(basis_by_n, basis_f32_n, float, float);
 static void compact_f32(const wdr_cal_view *cal, int row, const float *raw, float *out)
 {
     const uint32_t *c = wdr_cal_row_compact(cal, row);
-    const uint32_t shift = cal->code_q ? cal->code_shift : wdr_compact_shift(cal), top = cal->h.raw_max;
+    const uint32_t shift = wdr_compact_shift(cal), top = cal->h.raw_max;
+    const int32_t half = (int32_t)(1u << (shift - 1u));
     const float unit = 1.0f / (float)(1u << shift), m = (float)cal->h.out_max;
-    float g[WDR_CAL_COMPACT_COEFFS];
+    float g[WDR_CAL_COMPACT_COEFFS + 1];
     wdr_compact_gains(cal, shift, g);
     for (int i = 0; i < cal->h.width; i++) {
         float y = raw[i] > 0.0f ? raw[i] : 0.0f;
         y = y < (float)top ? y : (float)top;
-        uint32_t y0 = (uint32_t)y, y1 = y0 < top ? y0 + 1u : top, p0[2], p1[2];
-        wdr_compact_point(cal, g, y0, p0);
-        wdr_compact_point(cal, g, y1, p1);
-        float a0 = (float)wdr_compact_dot(c + 2 * i, p0, 0), a1 = (float)wdr_compact_dot(c + 2 * i, p1, 0);
+        uint32_t y0 = (uint32_t)y, y1 = y0 < top ? y0 + 1u : top, p0[3], p1[3];
+        wdr_compact_point(cal, g, shift, y0, p0);
+        wdr_compact_point(cal, g, shift, y1, p1);
+        float a0 = (float)(wdr_compact_dot(c + 2 * i, p0) - half), a1 = (float)(wdr_compact_dot(c + 2 * i, p1) - half);
         out[i] = wdr_to_output((a0 + (y - (float)y0) * (a1 - a0)) * unit, 1.0f, m);
     }
 }

@@ -56,16 +56,20 @@ static int parse_count(const char *opt, const char *v, int lo, int hi, int *out)
 static int form_from_name(const char *name, int *form)
 {
     static const struct { const char *name; int id; } names[] = {
-        {"moebius", WDR_FORM_MOEBIUS}, {"poly", WDR_FORM_POLY}, {"basis", WDR_FORM_BASIS}};
+        {"moebius", WDR_FORM_MOEBIUS}, {"poly", WDR_FORM_POLY}, {"basis", WDR_FORM_BASIS},
+        {"compact", WDR_FORM_COMPACT}};
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
         if (!strcmp(name, names[i].name))
             return *form = names[i].id, EX_OK;
-    return wdrctl_fail(EX_USAGE, "option --form: unknown table form '%s' (known: moebius, poly, basis)", name);
+    return wdrctl_fail(EX_USAGE, "option --form: unknown table form '%s' (known: moebius, poly, basis, compact)", name);
 }
 
 static const char *form_name(int form)
 {
-    return form == WDR_FORM_MOEBIUS ? "moebius" : form == WDR_FORM_BASIS ? "basis" : "poly";
+    return form == WDR_FORM_MOEBIUS   ? "moebius"
+           : form == WDR_FORM_BASIS   ? "basis"
+           : form == WDR_FORM_COMPACT ? "compact"
+                                      : "poly";
 }
 
 static int set_option(int c, const char *arg, cal_opts *o)
@@ -554,6 +558,8 @@ int cmd_calibrate(int argc, char **argv)
         return wdrctl_fail(EX_USAGE, "calibrate: --form moebius is exact only for --model simple3");
     if (o.form >= 0)
         r.cfg.form = o.form;
+    if (o.form == WDR_FORM_COMPACT)
+        r.cfg.n_coeffs = WDR_CAL_COMPACT_COEFFS;
     if (o.device) {
         device_src d;
         wdr_cal_source src;
