@@ -186,22 +186,26 @@ int wdr_correct_per_code(wdr_cal_view *cal, float *points, size_t capacity)
 
 /* ---- COMPACT: int16 coefficients, fixed-point points per code (correct_inline.h) ---- */
 
-/* Output code of a pixel's sum: negative sums give 0, the shift rounds (the bias holds the half). */
-static inline uint16_t compact_output(int32_t acc, uint32_t shift, uint32_t out_max)
+/* Output code of a pixel's sum: shifted (the bias in base(y) rounds), negative sums give 0
+ * (v & ~(v >> 31): one BIC), then clamped to out_max. */
+static inline uint16_t compact_output(int32_t acc, uint32_t shift, int32_t out_max)
 {
-    uint32_t v = acc > 0 ? (uint32_t)acc >> shift : 0u;
+    int32_t v = acc >> shift; /* arithmetic shift (GCC, clang); the negative ones become 0 next */
+    v &= ~(v >> 31);
     return (uint16_t)(v < out_max ? v : out_max);
 }
 
-/* The controller's loop: one load of the code, two SMLAD, a shift and a clamp per pixel. */
+/* The controller's loop: a load of the code, its point (16 bytes), the pixel's two words, two
+ * SMLAD, a shift and a clamp. Pointers walk the row so nothing is re-read from the view. */
 static void compact_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
 {
     const uint32_t *c = wdr_cal_row_compact(cal, row), *points = cal->code_q;
-    const uint32_t top = cal->h.raw_max, shift = cal->code_shift, m = cal->h.out_max;
-    const int w = cal->h.width;
-    for (int i = 0; i < w; i++) {
-        uint32_t y = raw[i] < top ? raw[i] : top;
-        out[i] = compact_output(wdr_compact_dot(c + 2 * i, points + 3u * y), shift, m);
+    const uint32_t top = cal->h.raw_max, shift = cal->code_shift;
+    const int32_t m = cal->h.out_max;
+    for (const uint16_t *end = raw + cal->h.width; raw < end; c += 2) {
+        uint32_t y = *raw++;
+        y = y < top ? y : top;
+        *out++ = compact_output(wdr_compact_dot(c, points + WDR_CAL_COMPACT_POINT_WORDS * y), shift, m);
     }
 }
 
@@ -209,16 +213,13 @@ static void compact_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *
  * computed as wdr_correct_per_code_compact would have tabulated it, so the bits are the same. */
 static void compact_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
 {
-    if (cal->code_q) {
-        compact_codes_u16(cal, row, raw, out);
-        return;
-    }
     const uint32_t *c = wdr_cal_row_compact(cal, row);
-    const uint32_t top = cal->h.raw_max, shift = wdr_compact_shift(cal), m = cal->h.out_max;
+    const uint32_t top = cal->h.raw_max, shift = wdr_compact_shift(cal);
+    const int32_t m = cal->h.out_max;
     float g[WDR_CAL_COMPACT_COEFFS + 1];
     wdr_compact_gains(cal, shift, g);
     for (int i = 0; i < cal->h.width; i++) {
-        uint32_t p[3];
+        uint32_t p[WDR_CAL_COMPACT_POINT_WORDS];
         wdr_compact_point(cal, g, shift, raw[i] < top ? raw[i] : top, p);
         out[i] = compact_output(wdr_compact_dot(c + 2 * i, p), shift, m);
     }
@@ -230,13 +231,13 @@ int wdr_correct_per_code_compact(wdr_cal_view *cal, uint32_t *points, size_t cap
         cal->h.n_coeffs != WDR_CAL_COMPACT_COEFFS || cal->h.raw_max == 0)
         return WDR_E_INVAL;
     const uint32_t codes = (uint32_t)cal->h.raw_max + 1u;
-    if ((size_t)codes * 3u > capacity)
+    if ((size_t)codes * WDR_CAL_COMPACT_POINT_WORDS > capacity)
         return WDR_E_TOO_LARGE;
     const uint32_t shift = wdr_compact_shift(cal);
     float g[WDR_CAL_COMPACT_COEFFS + 1];
     wdr_compact_gains(cal, shift, g);
     for (uint32_t y = 0; y < codes; y++)
-        wdr_compact_point(cal, g, shift, y, points + 3u * y);
+        wdr_compact_point(cal, g, shift, y, points + WDR_CAL_COMPACT_POINT_WORDS * y);
     cal->code_q = points;
     cal->code_shift = shift;
     return WDR_OK;
@@ -299,7 +300,7 @@ static row_fn *kernel_for(const wdr_cal_view *cal)
     case WDR_FORM_MOEBIUS: return moebius_u16;
     case WDR_FORM_POLY: return poly_by_n[n];
     case WDR_FORM_BASIS: return points_are_codes(cal) ? codes_by_n[n] : basis_by_n[n];
-    default: return compact_u16; /* wdr_correct_row_ok admits no other form */
+    default: return cal->code_q ? compact_codes_u16 : compact_u16; /* COMPACT: _ok admits no other form */
     }
 }
 

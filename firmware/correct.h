@@ -38,14 +38,14 @@ int wdr_correct_row_ok(const wdr_cal_view *cal, int row, const void *raw, const 
  * @retval WDR_E_TOO_LARGE  capacity below (raw_max + 1) * n_coeffs; the view is left unchanged */
 int wdr_correct_per_code(wdr_cal_view *cal, float *points, size_t capacity);
 
-/* The same for a COMPACT view: points[3y..3y+2] get code y's fixed-point base and points (int16
+/* The same for a COMPACT view: points[4y..4y+3] get code y's fixed-point base and points (int16
  * pairs, 2^-code_shift output codes each, correct_inline.h) for every code 0..raw_max (capacity
- * words, at least 3 (raw_max + 1)); the view's code_q and code_shift then point at them and
+ * words, at least 4 (raw_max + 1)); the view's code_q and code_shift then point at them and
  * wdr_correct_row does two SMLAD per pixel. Results are the same bits as without them. Call again
  * whenever the shared block changes; points must outlive the view.
  * @retval WDR_OK
  * @retval WDR_E_INVAL      not a COMPACT view with its shared block, or raw_max of 0
- * @retval WDR_E_TOO_LARGE  capacity below 3 (raw_max + 1); the view is left unchanged */
+ * @retval WDR_E_TOO_LARGE  capacity below 4 (raw_max + 1); the view is left unchanged */
 int wdr_correct_per_code_compact(wdr_cal_view *cal, uint32_t *points, size_t capacity);
 
 #endif

@@ -94,6 +94,7 @@ static inline void wdr_row_planes(const wdr_cal_view *cal, int row, const float 
 #define WDR_CAL_COMPACT_P_MAX 8128.0f
 #define WDR_CAL_COMPACT_BASE_MAX 1073741824.0f /* 2^30 */
 #define WDR_CAL_COMPACT_MAX_SHIFT 24u
+#define WDR_CAL_COMPACT_POINT_WORDS 4u /* base, P0|P1, P2|P3, zero: 16 bytes, one shift to address */
 
 static inline const float *wdr_compact_offsets(const wdr_cal_view *cal)
 {
@@ -144,9 +145,9 @@ static inline float wdr_clampf(float x, float top) { return x < top ? (x > -top 
 
 static inline int32_t wdr_round_i32(float x) { return (int32_t)(x < 0.0f ? x - 0.5f : x + 0.5f); }
 
-/* The three words of code y: base(y) with the rounding half of 2^F, P0 | P1 << 16, P2 | P3 << 16. */
+/* The words of code y: base(y) with the rounding half of 2^F, P0 | P1 << 16, P2 | P3 << 16, 0. */
 static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_CAL_COMPACT_COEFFS + 1],
-                                     uint32_t shift, uint32_t y, uint32_t out[3])
+                                     uint32_t shift, uint32_t y, uint32_t out[WDR_CAL_COMPACT_POINT_WORDS])
 {
     const uint32_t n = WDR_CAL_COMPACT_COEFFS;
     float f, b[WDR_CAL_COMPACT_COEFFS];
@@ -162,6 +163,7 @@ static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_
     out[0] = (uint32_t)(wdr_round_i32(base) + (int32_t)(1u << (shift - 1u)));
     out[1] = q[0] | q[1] << 16;
     out[2] = q[2] | q[3] << 16;
+    out[3] = 0;
 }
 
 /* acc + lo(a) lo(b) + hi(a) hi(b), signed 16-bit halves: one SMLAD on a DSP core. */

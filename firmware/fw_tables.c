@@ -14,7 +14,7 @@
  * program has one firmware (wdr_fw.h), so one table. A wider ADC than it holds interpolates. */
 static union {
     float basis[WDR_FW_CAL_CODES * WDR_FW_MAX_CAL_COEFFS];
-    uint32_t compact[WDR_FW_CAL_CODES * 3u]; /* COMPACT: base and two int16 pairs per code */
+    uint32_t compact[WDR_FW_CAL_CODES * 4u]; /* COMPACT: base and two int16 pairs per code, 16 bytes */
 } cal_code_points;
 
 static uint32_t data_addr(const wdr_fw *fw, int kind, int slot)

@@ -100,7 +100,7 @@ typedef struct wdr_cal_view {
     const uint8_t *payload; /* first row; NULL for the identity */
     uint32_t row_stride;
     const float *shared;    /* BASIS, COMPACT: the shared block (a firmware may point it at a RAM copy); else NULL */
-    /* COMPACT after wdr_correct_per_code_compact: per raw code 3 words, the offsets' base and two
+    /* COMPACT after wdr_correct_per_code_compact: per raw code 4 words, the offsets' base and two
      * int16 pairs (the kernel's fixed-point points, 2^-code_shift output codes), else NULL
      * (computed per pixel) */
     const uint32_t *code_q;

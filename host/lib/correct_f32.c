@@ -86,7 +86,7 @@ static void compact_f32(const wdr_cal_view *cal, int row, const float *raw, floa
     for (int i = 0; i < cal->h.width; i++) {
         float y = raw[i] > 0.0f ? raw[i] : 0.0f;
         y = y < (float)top ? y : (float)top;
-        uint32_t y0 = (uint32_t)y, y1 = y0 < top ? y0 + 1u : top, p0[3], p1[3];
+        uint32_t y0 = (uint32_t)y, y1 = y0 < top ? y0 + 1u : top, p0[WDR_CAL_COMPACT_POINT_WORDS], p1[WDR_CAL_COMPACT_POINT_WORDS];
         wdr_compact_point(cal, g, shift, y0, p0);
         wdr_compact_point(cal, g, shift, y1, p1);
         float a0 = (float)(wdr_compact_dot(c + 2 * i, p0) - half), a1 = (float)(wdr_compact_dot(c + 2 * i, p1) - half);
