@@ -33,5 +33,5 @@ for form in moebius poly basis compact; do
     "$data" check "$dir/frames.bin" "$dir/$form.bin" "$dir/$form-1.pfm" "$dir/$form-2.pfm" || rc=1
 done
 t1=$(date +%s.%N)
-echo "target test: 10 frames of ${W}x${H} ($((10 * W * H)) pixels) compared, 5 forms, $(echo "$t1 - $t0" | bc) s"
+echo "target test: 10 frames of ${W}x${H} ($((10 * W * H)) pixels) compared, 5 forms, $(awk "BEGIN { printf \"%.1f\", $t1 - $t0 }") s"
 exit $rc
