@@ -186,18 +186,27 @@ int wdr_correct_per_code(wdr_cal_view *cal, float *points, size_t capacity)
 
 /* ---- COMPACT: int16 coefficients, fixed-point points per code (correct_inline.h) ---- */
 
-/* Output code of a pixel's sum: shifted (the bias in base(y) rounds), negative sums give 0
- * (v & ~(v >> 31): one BIC), then clamped to out_max. */
-static inline uint16_t compact_output(int32_t acc, uint32_t shift, int32_t out_max)
+/* Output code of a pixel's sum: shifted (the bias in base(y) rounds), negative sums give 0,
+ * then clamped to out_max. bits (a literal): out_max is 2^bits - 1, one USAT does both clamps on
+ * the controller; 0: any out_max. */
+static inline uint16_t compact_output(int32_t acc, uint32_t shift, int32_t out_max, const int bits)
 {
-    int32_t v = acc >> shift; /* arithmetic shift (GCC, clang); the negative ones become 0 next */
-    v &= ~(v >> 31);
+    int32_t v = acc >> shift; /* arithmetic shift (GCC, clang) */
+#if defined(__ARM_FEATURE_SAT)
+    if (bits == 12)
+        return (uint16_t)__usat(v, 12);
+    if (bits == 16)
+        return (uint16_t)__usat(v, 16);
+#endif
+    (void)bits;
+    v &= ~(v >> 31); /* negative: 0 (one BIC) */
     return (uint16_t)(v < out_max ? v : out_max);
 }
 
 /* The controller's loop: a load of the code, its point (16 bytes), the pixel's two words, two
- * SMLAD, a shift and a clamp. Pointers walk the row so nothing is re-read from the view. */
-static void compact_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
+ * SMLAD, a shift and a saturation. Pointers walk the row so nothing is re-read from the view. */
+static inline void compact_codes_bits(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out,
+                                      const int bits)
 {
     const uint32_t *c = wdr_cal_row_compact(cal, row), *points = cal->code_q;
     const uint32_t top = cal->h.raw_max, shift = cal->code_shift;
@@ -205,8 +214,18 @@ static void compact_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *
     for (const uint16_t *end = raw + cal->h.width; raw < end; c += 2) {
         uint32_t y = *raw++;
         y = y < top ? y : top;
-        *out++ = compact_output(wdr_compact_dot(c, points + WDR_CAL_COMPACT_POINT_WORDS * y), shift, m);
+        *out++ = compact_output(wdr_compact_dot(c, points + WDR_CAL_COMPACT_POINT_WORDS * y), shift, m, bits);
     }
+}
+
+static void compact_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
+{
+    if (cal->h.out_max == 4095u)
+        compact_codes_bits(cal, row, raw, out, 12);
+    else if (cal->h.out_max == 65535u)
+        compact_codes_bits(cal, row, raw, out, 16);
+    else
+        compact_codes_bits(cal, row, raw, out, 0);
 }
 
 /* Without the per-code points (an ADC wider than the buffer, host tools): each pixel's point is
@@ -221,7 +240,7 @@ static void compact_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, u
     for (int i = 0; i < cal->h.width; i++) {
         uint32_t p[WDR_CAL_COMPACT_POINT_WORDS];
         wdr_compact_point(cal, g, shift, raw[i] < top ? raw[i] : top, p);
-        out[i] = compact_output(wdr_compact_dot(c + 2 * i, p), shift, m);
+        out[i] = compact_output(wdr_compact_dot(c + 2 * i, p), shift, m, 0);
     }
 }
 

@@ -3,6 +3,7 @@
 #include "cal_basis.h"
 #include "cal_fit.h"
 #include "wdr_err.h"
+#include "wdr_lut.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -257,4 +258,12 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     *out = buf;
     *out_len = len;
     return WDR_OK;
+}
+
+void wdr_cal_default_form(wdr_cal_config *cfg, int operator_id)
+{
+    if (cfg->model != WDR_MODEL_SPLINE || operator_id == WDR_OP_DRAGO || operator_id == WDR_OP_TUMBLIN_RUSHMEIER)
+        return;
+    cfg->form = WDR_FORM_COMPACT;
+    cfg->n_coeffs = WDR_CAL_COMPACT_COEFFS;
 }

@@ -564,7 +564,7 @@ int cmd_calibrate(int argc, char **argv)
         device_src d;
         wdr_cal_source src;
         if ((rc = open_device(&o, &d, &src)) == EX_OK) {
-            set_output(&o, &r.cfg, d.conn.c->info.adc_bits);
+            set_output(&o, &r.cfg, d.conn.c->info.adc_bits); /* the board's operator is unknown here: basis-8 */
             rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model);
             if (rc == EX_OK && o.upload)
                 rc = upload_table(&d, &r);
@@ -580,6 +580,8 @@ int cmd_calibrate(int argc, char **argv)
     if ((rc = load_board(o.board, &b)) != EX_OK || (rc = open_sim(&o, &b, &c)) != EX_OK)
         return rc;
     set_output(&o, &r.cfg, (unsigned)b.adc_bits);
+    if (o.form < 0)
+        wdr_cal_default_form(&r.cfg, op->id);
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
     rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model);

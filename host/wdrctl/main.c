@@ -34,7 +34,7 @@ static const wdrctl_command commands[] = {
      "[--model spline|simple3|complex4|lsq|polymap] [--currents A,B,..|--levels-file F|--select N] [--frames M]\n"
      "            [--board FILE] [--operator NAME] [--adc on|off] [--dac on|off]\n"
      "            [--device ADDR [--lut LUT.bin] [--upload]] [--out-scale 1..16]\n"
-     "            [--form moebius|poly|basis]\n"
+     "            [--form moebius|poly|basis|compact]\n"
      "            -o CAL.bin [--json]"},
     {"fpn", "report", cmd_fpn_report,
      "--outdir DIR [--models spline,simple3,complex4] [--board FILE] [--operator NAME] [--adc on|off]\n"
