@@ -143,6 +143,28 @@ static void print_table(void)
            " Moebius from the 3-parameter model. basis = 8 functions; compact = 4, int16.)\n");
 }
 
+/* Bytes of a whole stored table (header, shared block, rows) for a sensor of w x h, per form. */
+static double table_bytes(const form_row *f, uint16_t w, uint16_t h)
+{
+    switch (f->form) {
+    case WDR_FORM_IDENTITY: return 0;
+    case WDR_FORM_BASIS: return (double)wdr_cal_size_basis(w, h, 8, WDR_CAL_MAX_SHARED_FLOATS / 8);
+    case WDR_FORM_COMPACT: return (double)wdr_cal_size_compact(w, h, WDR_CAL_MAX_SHARED_FLOATS / 4);
+    default: return (double)wdr_cal_size(w, h, (uint16_t)f->n);
+    }
+}
+
+static void print_external(void)
+{
+    printf("\nExternal memory for the table (table flash or SDRAM; the firmware reads one row block at a time):\n");
+    printf("%-9s %14s %14s\n", "form", "VGA 640x480", "SXGA 1280x1024");
+    for (size_t i = 1; i < N_FORMS; i++)
+        printf("%-9s %11.2f MB %11.2f MB\n", forms[i].name, table_bytes(&forms[i], 640, 480) / 1e6,
+               table_bytes(&forms[i], 1280, 1024) / 1e6);
+    printf("(1280-pixel rows are above the firmware's WDR_FW_MAX_WIDTH of 1024, so that sensor also needs a\n"
+           " wider build; the sizes are what its table takes.)\n");
+}
+
 int main(int argc, char **argv)
 {
     const char *qemu = NULL, *image = NULL, *data = NULL, *dir = "/tmp";
@@ -170,5 +192,6 @@ int main(int argc, char **argv)
     } else
         printf("bench_target: no --qemu/--image/--data: instruction counts skipped (.ci/test runs them)\n");
     print_table();
+    print_external();
     return 0;
 }
