@@ -186,12 +186,10 @@ int wdr_correct_per_code(wdr_cal_view *cal, float *points, size_t capacity)
 
 /* ---- COMPACT: int16 coefficients, fixed-point points per code (correct_inline.h) ---- */
 
-/* Output code of a pixel's sum: shifted (the bias in base(y) rounds), negative sums give 0,
- * then clamped to out_max. bits (a literal): out_max is 2^bits - 1, one USAT does both clamps on
- * the controller; 0: any out_max. */
-static inline uint16_t compact_output(int32_t acc, uint32_t shift, int32_t out_max, const int bits)
+/* Output code of a pixel's value (wdr_compact_value): negative gives 0, then clamped to out_max.
+ * bits (a literal): out_max is 2^bits - 1, one USAT does both clamps on the controller; 0: any. */
+static inline uint16_t compact_output(int32_t v, int32_t out_max, const int bits)
 {
-    int32_t v = acc >> shift; /* arithmetic shift (GCC, clang) */
 #if defined(__ARM_FEATURE_SAT)
     if (bits == 12)
         return (uint16_t)__usat(v, 12);
@@ -214,7 +212,7 @@ static inline void compact_codes_bits(const wdr_cal_view *cal, int row, const ui
     for (const uint16_t *end = raw + cal->h.width; raw < end; c += 2) {
         uint32_t y = *raw++;
         y = y < top ? y : top;
-        *out++ = compact_output(wdr_compact_dot(c, points + WDR_CAL_COMPACT_POINT_WORDS * y), shift, m, bits);
+        *out++ = compact_output(wdr_compact_value(c, points + WDR_CAL_COMPACT_POINT_WORDS * y, shift), m, bits);
     }
 }
 
@@ -235,12 +233,12 @@ static void compact_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, u
     const uint32_t *c = wdr_cal_row_compact(cal, row);
     const uint32_t top = cal->h.raw_max, shift = wdr_compact_shift(cal);
     const int32_t m = cal->h.out_max;
-    float g[WDR_CAL_COMPACT_COEFFS + 1];
+    float g[WDR_CAL_COMPACT_COEFFS];
     wdr_compact_gains(cal, shift, g);
     for (int i = 0; i < cal->h.width; i++) {
         uint32_t p[WDR_CAL_COMPACT_POINT_WORDS];
         wdr_compact_point(cal, g, shift, raw[i] < top ? raw[i] : top, p);
-        out[i] = compact_output(wdr_compact_dot(c + 2 * i, p), shift, m, 0);
+        out[i] = compact_output(wdr_compact_value(c + 2 * i, p, shift), m, 0);
     }
 }
 
@@ -253,7 +251,7 @@ int wdr_correct_per_code_compact(wdr_cal_view *cal, uint32_t *points, size_t cap
     if ((size_t)codes * WDR_CAL_COMPACT_POINT_WORDS > capacity)
         return WDR_E_TOO_LARGE;
     const uint32_t shift = wdr_compact_shift(cal);
-    float g[WDR_CAL_COMPACT_COEFFS + 1];
+    float g[WDR_CAL_COMPACT_COEFFS];
     wdr_compact_gains(cal, shift, g);
     for (uint32_t y = 0; y < codes; y++)
         wdr_compact_point(cal, g, shift, y, points + WDR_CAL_COMPACT_POINT_WORDS * y);

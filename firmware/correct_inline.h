@@ -85,69 +85,68 @@ static inline void wdr_row_planes(const wdr_cal_view *cal, int row, const float 
         c[k] = wdr_cal_row_coeffs(cal, row, k);
 }
 
-/* ---- COMPACT: fixed point, 2^-F output codes. Per raw code y, base(y) = round(out_scale 2^F
- * sum_k offset_k B_k(t(y))) + 2^(F-1) (what every pixel shares, and the rounding half) and
- * P_k(y) = round(scale_k out_scale 2^F B_k(t(y))) as int16; a pixel is base(y) + sum_k q_k P_k(y)
- * in int32 (two SMLAD), shifted right by F: the output code, rounded half up. The bounds keep
- * the sum inside int32: 2^30 + 4 * 32767 * 8128 < 2^31. ---- */
+/* ---- COMPACT: fixed point. Per raw code y the kernel tabulates what every pixel shares,
+ * base(y) = out_scale sum_k offset_k B_k(t(y)), as an integer part (output codes) and a fraction
+ * in 2^-F codes that also holds the rounding half; and P_k(y) = round(scale_k out_scale 2^F
+ * B_k(t(y))) as int16. A pixel is int(y) + ((frac(y) + sum_k q_k P_k(y)) >> F): two SMLAD in
+ * int32, so F only has to serve the pixels' spread, not the whole output range. The bounds keep
+ * the sum inside int32: 4 * 32768 * 16128 + 1.5 * 2^24 < 2^31. ---- */
 
-#define WDR_CAL_COMPACT_P_MAX 8128.0f
-#define WDR_CAL_COMPACT_BASE_MAX 1073741824.0f /* 2^30 */
+#define WDR_CAL_COMPACT_P_MAX 16128.0f
+#define WDR_CAL_COMPACT_BASE_MAX 1073741824.0f /* 2^30 output codes: any out_max fits */
 #define WDR_CAL_COMPACT_MAX_SHIFT 24u
-#define WDR_CAL_COMPACT_POINT_WORDS 4u /* base, P0|P1, P2|P3, zero: 16 bytes, one shift to address */
+#define WDR_CAL_COMPACT_POINT_WORDS 4u /* frac, P0|P1, P2|P3, int: 16 bytes, one shift to address */
 
 static inline const float *wdr_compact_offsets(const wdr_cal_view *cal)
 {
     return wdr_cal_compact_scales(cal) + WDR_CAL_COMPACT_COEFFS;
 }
 
-/* sum_k offset_k B_k at shared point j, in the order the kernel adds. */
+/* sum_k offset_k B_k at one point, in the order the kernel adds. */
 static inline float wdr_compact_base_at(const float *point, const float *offset)
 {
     return ((point[0] * offset[0] + point[1] * offset[1]) + point[2] * offset[2]) + point[3] * offset[3];
 }
 
-/* F: the largest shift in 1..24 that keeps every |P| within WDR_CAL_COMPACT_P_MAX and every
- * |base| within 2^30 at the shared points (codes interpolate between them; rounding past the
- * bounds is clamped). */
+/* F: the largest shift in 1..24 that keeps every |P| within WDR_CAL_COMPACT_P_MAX at the shared
+ * points (the codes interpolate between them; rounding past the bound is clamped). */
 static inline uint32_t wdr_compact_shift(const wdr_cal_view *cal)
 {
-    const float *scale = wdr_cal_compact_scales(cal), *offset = wdr_compact_offsets(cal);
-    float top_p = 0.0f, top_b = 0.0f;
-    for (uint32_t j = 0; j < cal->h.shared_points; j++) {
-        const float *point = cal->shared + j * WDR_CAL_COMPACT_COEFFS;
+    const float *scale = wdr_cal_compact_scales(cal);
+    float top = 0.0f;
+    for (uint32_t j = 0; j < cal->h.shared_points; j++)
         for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++) {
-            float v = point[k] * scale[k] * cal->h.out_scale;
+            float v = cal->shared[j * WDR_CAL_COMPACT_COEFFS + k] * scale[k] * cal->h.out_scale;
             v = v < 0.0f ? -v : v;
-            top_p = v > top_p ? v : top_p;
+            top = v > top ? v : top;
         }
-        float b = wdr_compact_base_at(point, offset) * cal->h.out_scale;
-        b = b < 0.0f ? -b : b;
-        top_b = b > top_b ? b : top_b;
-    }
     uint32_t f = 1;
-    while (f < WDR_CAL_COMPACT_MAX_SHIFT && top_p * (float)(1u << (f + 1u)) <= WDR_CAL_COMPACT_P_MAX &&
-           top_b * (float)(1u << (f + 1u)) <= WDR_CAL_COMPACT_BASE_MAX)
+    while (f < WDR_CAL_COMPACT_MAX_SHIFT && top * (float)(1u << (f + 1u)) <= WDR_CAL_COMPACT_P_MAX)
         f++;
     return f;
 }
 
-/* g_k = scale_k out_scale 2^F (g[4] = out_scale 2^F for the base): P_k(y) = round(g_k B_k(t(y))). */
-static inline void wdr_compact_gains(const wdr_cal_view *cal, uint32_t shift, float g[WDR_CAL_COMPACT_COEFFS + 1])
+/* g_k = scale_k out_scale 2^F: P_k(y) = round(g_k B_k(t(y))). */
+static inline void wdr_compact_gains(const wdr_cal_view *cal, uint32_t shift, float g[WDR_CAL_COMPACT_COEFFS])
 {
     const float *scale = wdr_cal_compact_scales(cal);
     for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++)
         g[k] = scale[k] * cal->h.out_scale * (float)(1u << shift);
-    g[WDR_CAL_COMPACT_COEFFS] = cal->h.out_scale * (float)(1u << shift);
 }
 
 static inline float wdr_clampf(float x, float top) { return x < top ? (x > -top ? x : -top) : top; }
 
 static inline int32_t wdr_round_i32(float x) { return (int32_t)(x < 0.0f ? x - 0.5f : x + 0.5f); }
 
-/* The words of code y: base(y) with the rounding half of 2^F, P0 | P1 << 16, P2 | P3 << 16, 0. */
-static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_CAL_COMPACT_COEFFS + 1],
-                                     uint32_t shift, uint32_t y, uint32_t out[WDR_CAL_COMPACT_POINT_WORDS])
+static inline int32_t wdr_floor_i32(float x)
+{
+    int32_t i = (int32_t)x;
+    return (float)i > x ? i - 1 : i;
+}
+
+/* The words of code y: frac(y) 2^F + 2^(F-1), P0 | P1 << 16, P2 | P3 << 16, int(y). */
+static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_CAL_COMPACT_COEFFS], uint32_t shift,
+                                     uint32_t y, uint32_t out[WDR_CAL_COMPACT_POINT_WORDS])
 {
     const uint32_t n = WDR_CAL_COMPACT_COEFFS;
     float f, b[WDR_CAL_COMPACT_COEFFS];
@@ -159,11 +158,14 @@ static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_
         b[k] = p0[k] + f * (p1[k] - p0[k]);
         q[k] = (uint16_t)(int16_t)wdr_round_i32(wdr_clampf(b[k] * g[k], WDR_CAL_COMPACT_P_MAX));
     }
-    float base = wdr_clampf(wdr_compact_base_at(b, wdr_compact_offsets(cal)) * g[n], WDR_CAL_COMPACT_BASE_MAX);
-    out[0] = (uint32_t)(wdr_round_i32(base) + (int32_t)(1u << (shift - 1u)));
+    float base = wdr_clampf(wdr_compact_base_at(b, wdr_compact_offsets(cal)) * cal->h.out_scale,
+                            WDR_CAL_COMPACT_BASE_MAX);
+    int32_t whole = wdr_floor_i32(base);
+    float frac = (base - (float)whole) * (float)(1u << shift); /* [0, 2^F], exact scaling */
+    out[0] = (uint32_t)(wdr_round_i32(frac) + (int32_t)(1u << (shift - 1u)));
     out[1] = q[0] | q[1] << 16;
     out[2] = q[2] | q[3] << 16;
-    out[3] = 0;
+    out[3] = (uint32_t)whole;
 }
 
 /* acc + lo(a) lo(b) + hi(a) hi(b), signed 16-bit halves: one SMLAD on a DSP core. */
@@ -176,10 +178,16 @@ static inline int32_t wdr_smlad(uint32_t a, uint32_t b, int32_t acc)
 #endif
 }
 
-/* base(y) + sum_k q_k P_k(y) of a pixel's two coefficient words c and its code's point p. */
+/* frac(y) + sum_k q_k P_k(y) of a pixel's two coefficient words c and its code's point p. */
 static inline int32_t wdr_compact_dot(const uint32_t *c, const uint32_t *p)
 {
     return wdr_smlad(c[0], p[1], wdr_smlad(c[1], p[2], (int32_t)p[0]));
+}
+
+/* The output before clamping: int(y) + (dot >> F) (arithmetic shift, GCC and clang). */
+static inline int32_t wdr_compact_value(const uint32_t *c, const uint32_t *p, uint32_t shift)
+{
+    return (int32_t)p[3] + (wdr_compact_dot(c, p) >> shift);
 }
 
 #endif

@@ -73,24 +73,31 @@ static inline void basis_f32_n(const wdr_cal_view *cal, int row, const float *ra
 }
 WDR_CORRECT_BY_N(basis_by_n, basis_f32_n, float, float);
 
-/* COMPACT between codes: the controller's integer sums at floor(y) and the code above,
- * interpolated in float, scaled by 2^-F; y is clamped to [0, raw_max] first (NaN to 0). */
+/* COMPACT between codes: the controller's integer values at floor(y) and the code above, before
+ * the rounding (int(y) + (dot - 2^(F-1)) 2^-F), interpolated in float; y is clamped to
+ * [0, raw_max] first (NaN to 0). */
+static float compact_exact(const uint32_t *c, const uint32_t *p, int32_t half, float unit)
+{
+    return (float)(int32_t)p[3] + (float)(wdr_compact_dot(c, p) - half) * unit;
+}
+
 static void compact_f32(const wdr_cal_view *cal, int row, const float *raw, float *out)
 {
     const uint32_t *c = wdr_cal_row_compact(cal, row);
     const uint32_t shift = wdr_compact_shift(cal), top = cal->h.raw_max;
     const int32_t half = (int32_t)(1u << (shift - 1u));
     const float unit = 1.0f / (float)(1u << shift), m = (float)cal->h.out_max;
-    float g[WDR_CAL_COMPACT_COEFFS + 1];
+    float g[WDR_CAL_COMPACT_COEFFS];
     wdr_compact_gains(cal, shift, g);
     for (int i = 0; i < cal->h.width; i++) {
         float y = raw[i] > 0.0f ? raw[i] : 0.0f;
         y = y < (float)top ? y : (float)top;
-        uint32_t y0 = (uint32_t)y, y1 = y0 < top ? y0 + 1u : top, p0[WDR_CAL_COMPACT_POINT_WORDS], p1[WDR_CAL_COMPACT_POINT_WORDS];
+        uint32_t y0 = (uint32_t)y, y1 = y0 < top ? y0 + 1u : top, p0[WDR_CAL_COMPACT_POINT_WORDS],
+                 p1[WDR_CAL_COMPACT_POINT_WORDS];
         wdr_compact_point(cal, g, shift, y0, p0);
         wdr_compact_point(cal, g, shift, y1, p1);
-        float a0 = (float)(wdr_compact_dot(c + 2 * i, p0) - half), a1 = (float)(wdr_compact_dot(c + 2 * i, p1) - half);
-        out[i] = wdr_to_output((a0 + (y - (float)y0) * (a1 - a0)) * unit, 1.0f, m);
+        float a0 = compact_exact(c + 2 * i, p0, half, unit), a1 = compact_exact(c + 2 * i, p1, half, unit);
+        out[i] = wdr_to_output(a0 + (y - (float)y0) * (a1 - a0), 1.0f, m);
     }
 }
 
