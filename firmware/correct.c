@@ -266,7 +266,7 @@ static int next_flagged(const uint8_t *f, int i, int w)
 {
     while (i + 8 <= w) { /* most rows have no flags: skip eight at a time */
         uint64_t word;
-        memcpy(&word, f + i, 8);
+        __builtin_memcpy(&word, f + i, 8); /* the builtin: -ffreestanding makes memcpy a call */
         if (word)
             break;
         i += 8;
