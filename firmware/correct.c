@@ -301,7 +301,8 @@ static void patch_u16(const uint8_t *f, int w, uint16_t *out)
 
 int wdr_correct_row_ok(const wdr_cal_view *cal, int row, const void *raw, const void *out)
 {
-    if (!cal || !raw || !out || row < 0 || row >= cal->h.height || !wdr_cal_form_coeffs_ok(cal->h.form, cal->h.n_coeffs))
+    if (!cal || !raw || !out || row < 0 || row >= cal->h.height ||
+        !wdr_cal_form_coeffs_ok(cal->h.form, cal->h.n_coeffs))
         return 0;
     if (cal->h.form == WDR_FORM_IDENTITY)
         return 1;

@@ -13,6 +13,7 @@
 /* One dispatch over the coefficient count: fn(cal, row, raw, out, n) with n a literal (so every
  * loop unrolls), instantiated once per n, in a table indexed by n - 2 (wdr_cal_form_coeffs_ok
  * has checked 2..8 before). */
+/* clang-format off */
 #define WDR_CORRECT_BY_N(table, fn, raw_t, out_t)                                                          \
     static void fn##_2(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 2); }      \
     static void fn##_3(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 3); }      \
@@ -23,6 +24,7 @@
     static void fn##_8(const wdr_cal_view *c, int r, const raw_t *x, out_t *o) { fn(c, r, x, o, 8); }      \
     static void (*const table[7])(const wdr_cal_view *, int, const raw_t *, out_t *) = {                   \
         fn##_2, fn##_3, fn##_4, fn##_5, fn##_6, fn##_7, fn##_8}
+/* clang-format on */
 
 /* Scale to output codes and clamp: the comparisons also map NaN to 0, so nothing non-finite
  * leaves the kernel whatever the input. */
@@ -33,7 +35,10 @@ static inline float wdr_to_output(float v, float out_scale, float out_max)
     return v < out_max ? v : out_max;
 }
 
-static inline float wdr_moebius(float y, float p, float q, float r) { return (p * y + q) / (r * y + 1.0f); }
+static inline float wdr_moebius(float y, float p, float q, float r)
+{
+    return (p * y + q) / (r * y + 1.0f);
+}
 
 /* Horner over n coefficients; n is a literal at every call so the loop unrolls. */
 static inline float wdr_poly(const float *const *c, int i, float u, const int n)
@@ -134,9 +139,15 @@ static inline void wdr_compact_gains(const wdr_cal_view *cal, uint32_t shift, fl
         g[k] = scale[k] * cal->h.out_scale * (float)(1u << shift);
 }
 
-static inline float wdr_clampf(float x, float top) { return x < top ? (x > -top ? x : -top) : top; }
+static inline float wdr_clampf(float x, float top)
+{
+    return x < top ? (x > -top ? x : -top) : top;
+}
 
-static inline int32_t wdr_round_i32(float x) { return (int32_t)(x < 0.0f ? x - 0.5f : x + 0.5f); }
+static inline int32_t wdr_round_i32(float x)
+{
+    return (int32_t)(x < 0.0f ? x - 0.5f : x + 0.5f);
+}
 
 static inline int32_t wdr_floor_i32(float x)
 {
@@ -151,15 +162,16 @@ static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_
     const uint32_t n = WDR_CAL_COMPACT_COEFFS;
     float f, b[WDR_CAL_COMPACT_COEFFS];
     const float *p0 = cal->shared + (size_t)wdr_basis_point((float)y, cal->h.in_scale, cal->h.in_offset,
-                                                            (float)(cal->h.shared_points - 1u), &f) * n;
+                                                            (float)(cal->h.shared_points - 1u), &f) *
+                                        n;
     const float *p1 = p0 + n;
     uint32_t q[WDR_CAL_COMPACT_COEFFS];
     for (uint32_t k = 0; k < n; k++) {
         b[k] = p0[k] + f * (p1[k] - p0[k]);
         q[k] = (uint16_t)(int16_t)wdr_round_i32(wdr_clampf(b[k] * g[k], WDR_CAL_COMPACT_P_MAX));
     }
-    float base = wdr_clampf(wdr_compact_base_at(b, wdr_compact_offsets(cal)) * cal->h.out_scale,
-                            WDR_CAL_COMPACT_BASE_MAX);
+    float base =
+        wdr_clampf(wdr_compact_base_at(b, wdr_compact_offsets(cal)) * cal->h.out_scale, WDR_CAL_COMPACT_BASE_MAX);
     int32_t whole = wdr_floor_i32(base);
     float frac = (base - (float)whole) * (float)(1u << shift); /* [0, 2^F], exact scaling */
     out[0] = (uint32_t)(wdr_round_i32(frac) + (int32_t)(1u << (shift - 1u)));

@@ -33,12 +33,12 @@ typedef struct replay_header {
 } replay_header;
 
 static struct {
-    uint64_t now_ticks;   /* 64-bit time, from the 32-bit down counter */
+    uint64_t now_ticks; /* 64-bit time, from the 32-bit down counter */
     uint32_t last_value;
     uint64_t timer_deadline, ramp_deadline; /* ns; 0: none */
     bool timer_armed, ramp_playing, reset_asserted, rx_posted, converted;
-    int row;              /* selected row, -1: none */
-    uint32_t frame;       /* replay frame being exposed */
+    int row;        /* selected row, -1: none */
+    uint32_t frame; /* replay frame being exposed */
     replay_header replay;
 } hal;
 
@@ -117,7 +117,10 @@ void hal_timer_arm(uint64_t deadline_ns)
 
 /* ---- Board, flash format ------------------------------------------------------------------ */
 
-static const replay_header *replay(void) { return (const replay_header *)(uintptr_t)MPS2_REPLAY_BASE; }
+static const replay_header *replay(void)
+{
+    return (const replay_header *)(uintptr_t)MPS2_REPLAY_BASE;
+}
 
 /* A fresh part reads 0xFF; PSRAM starts at zero, so erase it once and leave a mark that
  * survives a firmware reset (the test's reboots keep PSRAM). */
@@ -142,8 +145,7 @@ int hal_init(void)
     UART_CTRL = 0x3u; /* TX and RX enabled */
     flash_factory();
     hal.replay = *replay();
-    if (hal.replay.magic != REPLAY_MAGIC || hal.replay.width == 0 || hal.replay.height == 0 ||
-        hal.replay.frames == 0 ||
+    if (hal.replay.magic != REPLAY_MAGIC || hal.replay.width == 0 || hal.replay.height == 0 || hal.replay.frames == 0 ||
         (uint64_t)hal.replay.frames * hal.replay.height * hal.replay.width * 2u + sizeof(replay_header) >
             MPS2_REPLAY_MAX)
         memset(&hal.replay, 0, sizeof hal.replay); /* no sensor: INFO and STATUS still answer */
@@ -182,7 +184,10 @@ int hal_row_select(uint16_t row)
     return WDR_OK;
 }
 
-void hal_row_deselect(void) { hal.row = -1; }
+void hal_row_deselect(void)
+{
+    hal.row = -1;
+}
 
 int hal_adc_convert(void)
 {
@@ -218,11 +223,17 @@ int hal_ramp_start(const wdr_lut_view *lut)
     return WDR_OK;
 }
 
-void hal_ramp_stop(void) { hal.ramp_playing = false; }
+void hal_ramp_stop(void)
+{
+    hal.ramp_playing = false;
+}
 
 /* ---- Flash: PSRAM with NOR rules ---------------------------------------------------------------- */
 
-static uint8_t *flash(uint32_t addr) { return (uint8_t *)(uintptr_t)(MPS2_FLASH_BASE + addr); }
+static uint8_t *flash(uint32_t addr)
+{
+    return (uint8_t *)(uintptr_t)(MPS2_FLASH_BASE + addr);
+}
 
 int hal_flash_geometry_get(hal_flash_geometry *g)
 {
@@ -265,7 +276,10 @@ int hal_flash_prog(uint32_t addr, const void *buf, uint32_t len)
 
 /* ---- The host link: UART0 in place of the bulk endpoints ------------------------------------------ */
 
-size_t hal_usb_max_transfer(void) { return WDR_PROTO_MAX_FRAME; }
+size_t hal_usb_max_transfer(void)
+{
+    return WDR_PROTO_MAX_FRAME;
+}
 
 int hal_usb_read(uint8_t *buf, size_t cap)
 {

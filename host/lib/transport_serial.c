@@ -21,7 +21,10 @@ typedef struct tty_transport {
     int fd;
 } tty_transport;
 
-static int tty_fd(wdr_transport *t) { return ((tty_transport *)t)->fd; }
+static int tty_fd(wdr_transport *t)
+{
+    return ((tty_transport *)t)->fd;
+}
 
 /* Wait until fd is ready for events before deadline; WDR_OK, WDR_E_TIMEOUT or WDR_E_IO. */
 static int tty_wait(int fd, short events, int64_t deadline)
@@ -84,10 +87,12 @@ static const wdr_transport_ops tty_ops = {tty_send, tty_recv, tty_close};
 
 static speed_t baud_code(long baud)
 {
-    static const struct { long baud; speed_t code; } rates[] = {
-        {9600, B9600},     {19200, B19200},   {38400, B38400},   {57600, B57600},     {115200, B115200},
-        {230400, B230400}, {460800, B460800}, {921600, B921600}, {1000000, B1000000}, {2000000, B2000000},
-        {3000000, B3000000}, {4000000, B4000000}};
+    static const struct {
+        long baud;
+        speed_t code;
+    } rates[] = {{9600, B9600},       {19200, B19200},     {38400, B38400},     {57600, B57600},
+                 {115200, B115200},   {230400, B230400},   {460800, B460800},   {921600, B921600},
+                 {1000000, B1000000}, {2000000, B2000000}, {3000000, B3000000}, {4000000, B4000000}};
     for (size_t i = 0; i < sizeof rates / sizeof rates[0]; i++)
         if (rates[i].baud == baud)
             return rates[i].code;
@@ -169,8 +174,8 @@ static int wrap_socket(int fd, const char *name, wdr_transport **out)
 
 static int socket_error(const char *what, const char *addr, int e, char *err, int errlen)
 {
-    snprintf(err, (size_t)errlen, "no board at %s:%s (%s): is the emulator running with -serial %s:%s,server?",
-             what, addr, strerror(e), what, addr);
+    snprintf(err, (size_t)errlen, "no board at %s:%s (%s): is the emulator running with -serial %s:%s,server?", what,
+             addr, strerror(e), what, addr);
     return e == ENOENT || e == ECONNREFUSED ? WDR_E_ABSENT : e == EACCES ? WDR_E_DENIED : WDR_E_IO;
 }
 

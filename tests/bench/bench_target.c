@@ -72,8 +72,8 @@ static int count_instructions(const char *qemu, const char *image, const char *d
     char loaders[4][300], frames[300];
     snprintf(frames, sizeof frames, "loader,file=%s/f.bin,addr=0x60800000,force-raw=on", dir);
     for (int i = 0; i < 4; i++)
-        snprintf(loaders[i], sizeof loaders[i], "loader,file=%s/%s.bin,addr=0x%x,force-raw=on", dir,
-                 forms[i + 1].name, 0x60000000u + (unsigned)i * 0x200000u);
+        snprintf(loaders[i], sizeof loaders[i], "loader,file=%s/%s.bin,addr=0x%x,force-raw=on", dir, forms[i + 1].name,
+                 0x60000000u + (unsigned)i * 0x200000u);
     int pipefd[2];
     if (pipe(pipefd))
         return 1;
@@ -81,9 +81,9 @@ static int count_instructions(const char *qemu, const char *image, const char *d
     if (pid == 0) {
         dup2(pipefd[1], 1);
         close(pipefd[0]);
-        execl(qemu, qemu, "-M", "mps2-an500", "-nographic", "-monitor", "none", "-icount", "shift=0", "-kernel",
-              image, "-device", frames, "-device", loaders[0], "-device", loaders[1], "-device", loaders[2],
-              "-device", loaders[3], "-serial", "stdio", (char *)NULL);
+        execl(qemu, qemu, "-M", "mps2-an500", "-nographic", "-monitor", "none", "-icount", "shift=0", "-kernel", image,
+              "-device", frames, "-device", loaders[0], "-device", loaders[1], "-device", loaders[2], "-device",
+              loaders[3], "-serial", "stdio", (char *)NULL);
         _exit(127);
     }
     close(pipefd[1]);
@@ -113,8 +113,8 @@ static int judge(int n_ops)
             return 1;
         printf("  %-18s", study_ops[op]);
         for (size_t i = 1; i < N_FORMS; i++) {
-            double w = study_worst(&c, forms[i].form == WDR_FORM_MOEBIUS ? &simple3 : &spline, forms[i].form,
-                                   forms[i].n);
+            double w =
+                study_worst(&c, forms[i].form == WDR_FORM_MOEBIUS ? &simple3 : &spline, forms[i].form, forms[i].n);
             forms[i].worst = isnan(forms[i].worst) || w > forms[i].worst ? w : forms[i].worst;
             printf("  %s %.3f %%", forms[i].name, w);
         }
@@ -134,8 +134,8 @@ static void print_table(void)
     for (size_t i = 0; i < N_FORMS; i++) {
         const form_row *f = &forms[i];
         double fps = CPU_HZ / (f->row * VGA_PIXELS);
-        printf("%-9s %5.0f %10.2f %10.2f %12.3f %14.1f %12.1f %8.2f MB\n", f->name, f->bytes_per_px, f->corr,
-               f->row, f->worst, fps, fps * f->bytes_per_px * VGA_PIXELS / 1e6, f->bytes_per_px * VGA_PIXELS / 1e6);
+        printf("%-9s %5.0f %10.2f %10.2f %12.3f %14.1f %12.1f %8.2f MB\n", f->name, f->bytes_per_px, f->corr, f->row,
+               f->worst, fps, fps * f->bytes_per_px * VGA_PIXELS / 1e6, f->bytes_per_px * VGA_PIXELS / 1e6);
     }
     printf("(insn = instructions per pixel on the Cortex-M7, counted by QEMU -icount shift=0; not cycles: the M7\n"
            " dual-issues, external-memory table reads stall. fps = 480e6 / (row insn x 640 x 480), an upper bound;\n"

@@ -16,8 +16,8 @@
 #define STUDY_TEST 31
 #define STUDY_OPS 7
 
-static const char *const study_ops[STUDY_OPS] = {"reinhard", "reinhard_white", "schlick", "tumblin_rushmeier",
-                                                 "drago", "exponential", "logarithmic"};
+static const char *const study_ops[STUDY_OPS] = {"reinhard", "reinhard_white", "schlick",    "tumblin_rushmeier",
+                                                 "drago",    "exponential",    "logarithmic"};
 
 typedef struct study_chip {
     wdr_sim *sim;

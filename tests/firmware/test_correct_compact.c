@@ -42,9 +42,15 @@ static void build(table *t, float out_scale, uint16_t out_max)
         for (int k = 0; k < 4; k++)
             t->coeffs[k * W * H + i] = k == 0 ? 0.97f + 0.0013f * (float)i : 0.5f * (float)((i * (k + 3)) % 11) - 2.0f;
     }
-    wdr_cal_header h = {.sensor_id = 7, .width = W, .height = H, .model = WDR_MODEL_SPLINE,
-                        .in_scale = (float)(K - 1) / RAW_MAX, .out_scale = out_scale, .out_max = out_max,
-                        .raw_max = RAW_MAX, .shared_points = K};
+    wdr_cal_header h = {.sensor_id = 7,
+                        .width = W,
+                        .height = H,
+                        .model = WDR_MODEL_SPLINE,
+                        .in_scale = (float)(K - 1) / RAW_MAX,
+                        .out_scale = out_scale,
+                        .out_max = out_max,
+                        .raw_max = RAW_MAX,
+                        .shared_points = K};
     t->len = wdr_cal_size_compact(W, H, K);
     t->buf = aligned_alloc(8, (t->len + 7) & ~(size_t)7);
     wdr_cal_encode_compact(&h, t->shared, t->coeffs, t->flags, t->buf);
@@ -70,7 +76,10 @@ static double formula(const wdr_cal_view *v, int row, int col, double y)
 static void kernel_follows_the_formula(void **state)
 {
     (void)state;
-    static const struct { float scale; uint16_t max; } outs[] = {{1.0f, 4095}, {16.0f, 65535}, {3.3f, 20000}};
+    static const struct {
+        float scale;
+        uint16_t max;
+    } outs[] = {{1.0f, 4095}, {16.0f, 65535}, {3.3f, 20000}};
     for (size_t o = 0; o < sizeof outs / sizeof outs[0]; o++) {
         table t;
         build(&t, outs[o].scale, outs[o].max);

@@ -28,7 +28,10 @@ static uint32_t rng(void) /* xorshift32: reproducible, no libc state */
     rng_state ^= rng_state << 13, rng_state ^= rng_state >> 17, rng_state ^= rng_state << 5;
     return rng_state;
 }
-static float unit(void) { return (float)(rng() >> 8) / 16777216.0f; } /* [0, 1) */
+static float unit(void)
+{
+    return (float)(rng() >> 8) / 16777216.0f;
+} /* [0, 1) */
 
 static int write_file(const char *path, const void *p, size_t n)
 {
@@ -87,8 +90,13 @@ static int make_lut(const char *out)
     static uint32_t t[N];
     static uint16_t codes[N];
     static uint8_t buf[WDR_LUT_HEADER_SIZE + N * WDR_LUT_ENTRY_SIZE];
-    wdr_lut_header h = {.operator_id = WDR_OP_REINHARD, .dac_bits = MPS2_DAC_BITS, .timing = WDR_TIMING_STAMPED,
-                        .entry_count = N, .tick_ps = 1000, .t_integration_ticks = N * 10u + 50u, .dac_hi_v = 3.3f};
+    wdr_lut_header h = {.operator_id = WDR_OP_REINHARD,
+                        .dac_bits = MPS2_DAC_BITS,
+                        .timing = WDR_TIMING_STAMPED,
+                        .entry_count = N,
+                        .tick_ps = 1000,
+                        .t_integration_ticks = N * 10u + 50u,
+                        .dac_hi_v = 3.3f};
     for (uint32_t i = 0; i < N; i++)
         t[i] = i * 10u, codes[i] = (uint16_t)(RAW_MAX - i);
     wdr_lut_encode(&h, t, codes, buf);
@@ -128,9 +136,9 @@ static float coefficient(int form, int k, float y_scale)
 
 static int make_cal(const char *name, const char *out, int w, int h)
 {
-    int form = !strcmp(name, "moebius") ? WDR_FORM_MOEBIUS
-               : !strcmp(name, "poly")  ? WDR_FORM_POLY
-               : !strcmp(name, "basis") ? WDR_FORM_BASIS
+    int form = !strcmp(name, "moebius")   ? WDR_FORM_MOEBIUS
+               : !strcmp(name, "poly")    ? WDR_FORM_POLY
+               : !strcmp(name, "basis")   ? WDR_FORM_BASIS
                : !strcmp(name, "compact") ? WDR_FORM_COMPACT
                                           : -1;
     if (form < 0)
@@ -139,7 +147,8 @@ static int make_cal(const char *name, const char *out, int w, int h)
     uint32_t K = form == WDR_FORM_BASIS ? 512 : 1024;
     size_t np = (size_t)w * h;
     float *coeffs = malloc(sizeof(float) * np * (size_t)n), *shared = malloc(sizeof(float) * K * (size_t)n);
-    uint8_t *flags = malloc(np), *buf = aligned_alloc(8, (wdr_cal_size_basis((uint16_t)w, (uint16_t)h, 8, K) + 7) & ~7u);
+    uint8_t *flags = malloc(np),
+            *buf = aligned_alloc(8, (wdr_cal_size_basis((uint16_t)w, (uint16_t)h, 8, K) + 7) & ~7u);
     uint32_t bad = 0;
     for (int r = 0; r < h; r++)
         for (int c = 0; c < w; c++) {
@@ -150,11 +159,18 @@ static int make_cal(const char *name, const char *out, int w, int h)
         }
     make_shared(shared, K, n);
     /* poly: 16-bit output, a scale that is no shift; the others the raw codes' range */
-    wdr_cal_header hd = {.sensor_id = MPS2_SENSOR_ID, .width = (uint16_t)w, .height = (uint16_t)h,
-                         .form = (uint16_t)form, .n_coeffs = (uint16_t)n, .model = WDR_MODEL_SPLINE,
-                         .in_scale = 2.0f / RAW_MAX, .in_offset = -1.0f,
+    wdr_cal_header hd = {.sensor_id = MPS2_SENSOR_ID,
+                         .width = (uint16_t)w,
+                         .height = (uint16_t)h,
+                         .form = (uint16_t)form,
+                         .n_coeffs = (uint16_t)n,
+                         .model = WDR_MODEL_SPLINE,
+                         .in_scale = 2.0f / RAW_MAX,
+                         .in_offset = -1.0f,
                          .out_scale = form == WDR_FORM_POLY ? 15.9f : 1.0f,
-                         .out_max = form == WDR_FORM_POLY ? 65535 : RAW_MAX, .raw_max = RAW_MAX, .bad_pixels = bad};
+                         .out_max = form == WDR_FORM_POLY ? 65535 : RAW_MAX,
+                         .raw_max = RAW_MAX,
+                         .bad_pixels = bad};
     size_t len;
     if (form == WDR_FORM_BASIS || form == WDR_FORM_COMPACT) {
         hd.in_scale = (float)(K - 1) / RAW_MAX, hd.in_offset = 0.0f, hd.shared_points = K;
@@ -215,7 +231,8 @@ static int check(const char *frames_path, const char *cal_path, int ncap, char *
     uint16_t *exp = malloc(sizeof(uint16_t) * np * (size_t)nf);
     for (int f = 0; f < nf; f++)
         for (int r = 0; r < h; r++)
-            if (wdr_correct_row(&v, r, (const uint16_t *)(fr + 16) + ((size_t)f * h + r) * w, exp + ((size_t)f * h + r) * w))
+            if (wdr_correct_row(&v, r, (const uint16_t *)(fr + 16) + ((size_t)f * h + r) * w,
+                                exp + ((size_t)f * h + r) * w))
                 return fprintf(stderr, "target_data: host kernel refused row %d\n", r), 1;
     int rc = 0, prev = -1;
     long pixels = 0;
@@ -257,6 +274,7 @@ int main(int argc, char **argv)
         return make_cal(argv[2], argv[3], atoi(argv[4]), atoi(argv[5]));
     if (argc >= 5 && !strcmp(argv[1], "check"))
         return check(argv[2], argv[3], argc - 4, argv + 4);
-    fprintf(stderr, "usage: target_data frames OUT W H N | lut OUT | cal FORM OUT W H | check FRAMES CAL|none CAP...\n");
+    fprintf(stderr,
+            "usage: target_data frames OUT W H N | lut OUT | cal FORM OUT W H | check FRAMES CAL|none CAP...\n");
     return 64;
 }

@@ -14,7 +14,7 @@
 #include <string.h>
 
 #define REG(addr) (*(volatile uint32_t *)(uintptr_t)(addr))
-#define TABLE_AT(i) (MPS2_PSRAM_BASE + (uint32_t)(i) * 0x200000u) /* 2 MiB apart, below the replay */
+#define TABLE_AT(i) (MPS2_PSRAM_BASE + (uint32_t)(i)*0x200000u) /* 2 MiB apart, below the replay */
 #define ROUNDS 4
 
 extern uint32_t _stack_top, _data_load, _data_start, _data_end, _bss_start, _bss_end;
@@ -25,8 +25,22 @@ static void park(void)
     }
 }
 __attribute__((section(".isr_vector"), used)) static void (*const vectors[16])(void) = {
-    (void (*)(void))(uintptr_t)&_stack_top, wdr_reset_handler, park, park, park, park, park, 0, 0, 0, 0,
-    park, park, 0, park, park,
+    (void (*)(void))(uintptr_t)&_stack_top,
+    wdr_reset_handler,
+    park,
+    park,
+    park,
+    park,
+    park,
+    0,
+    0,
+    0,
+    0,
+    park,
+    park,
+    0,
+    park,
+    park,
 };
 
 static float basis_points[4096 * 8];
@@ -53,7 +67,10 @@ static void put_u32(uint32_t v)
     put(p);
 }
 
-static uint32_t ticks(void) { return REG(MPS2_TIMER0_BASE + 4u); } /* counts down */
+static uint32_t ticks(void)
+{
+    return REG(MPS2_TIMER0_BASE + 4u);
+} /* counts down */
 
 static const uint16_t *raw_row(int r)
 {
