@@ -3,7 +3,7 @@
 # the exact apt-get line and fails. Sourced by .ci/demo and .ci/test.
 WDR_PACKAGES="build-essential cmake pkg-config libcjson-dev libpng-dev libstb-dev libopenexr-dev \
 libcmocka-dev libusb-1.0-0-dev libgpiod-dev gnuplot-nox gcc-arm-none-eabi libnewlib-arm-none-eabi \
-clang-tidy cppcheck groff-base"
+clang-tidy cppcheck groff-base qemu-system-arm"
 
 wdr_missing_packages() {
     for p in $WDR_PACKAGES; do

@@ -14,14 +14,31 @@ uint32_t wdr_cal_row_stride(uint16_t width, uint16_t n_coeffs)
     return (uint32_t)n_coeffs * width * 4u + flags;
 }
 
+/* COMPACT: 2 bytes a coefficient, pixel-major; the flags as in every form. */
+uint32_t wdr_cal_form_row_stride(uint16_t form, uint16_t width, uint16_t n_coeffs)
+{
+    if (form != WDR_FORM_COMPACT)
+        return wdr_cal_row_stride(width, n_coeffs);
+    return (uint32_t)n_coeffs * width * 2u + (((uint32_t)width + 3u) & ~3u);
+}
+
 size_t wdr_cal_size(uint16_t width, uint16_t height, uint16_t n_coeffs)
 {
     return WDR_CAL_HEADER_SIZE + (size_t)height * wdr_cal_row_stride(width, n_coeffs);
 }
 
+/* COMPACT: K points of 4 functions, then the 4 coefficient scales and the 4 offsets. */
 uint32_t wdr_cal_shared_bytes(const wdr_cal_header *h)
 {
+    if (h->form == WDR_FORM_COMPACT)
+        return (h->shared_points * WDR_CAL_COMPACT_COEFFS + WDR_CAL_COMPACT_EXTRA) * 4u;
     return h->form == WDR_FORM_BASIS ? h->shared_points * h->n_coeffs * 4u : 0u;
+}
+
+size_t wdr_cal_size_compact(uint16_t width, uint16_t height, uint32_t shared_points)
+{
+    return WDR_CAL_HEADER_SIZE + (size_t)height * wdr_cal_form_row_stride(WDR_FORM_COMPACT, width, 4u) +
+           ((size_t)shared_points * WDR_CAL_COMPACT_COEFFS + WDR_CAL_COMPACT_EXTRA) * 4u;
 }
 
 size_t wdr_cal_size_basis(uint16_t width, uint16_t height, uint16_t n_coeffs, uint32_t shared_points)
@@ -39,6 +56,8 @@ int wdr_cal_form_coeffs_ok(uint16_t form, uint16_t n_coeffs)
     case WDR_FORM_POLY:
     case WDR_FORM_BASIS:
         return n_coeffs >= 2 && n_coeffs <= WDR_CAL_MAX_COEFFS;
+    case WDR_FORM_COMPACT:
+        return n_coeffs == WDR_CAL_COMPACT_COEFFS;
     default:
         return 0;
     }
@@ -60,6 +79,18 @@ int wdr_cal_shared_check(const float *shared, uint16_t n_coeffs, uint32_t shared
         if (!nonzero)
             return WDR_E_NUMERIC;
     }
+    return WDR_OK;
+}
+
+int wdr_cal_shared_ok(const wdr_cal_header *h, const float *shared)
+{
+    int err = wdr_cal_shared_check(shared, h->n_coeffs, h->shared_points);
+    if (err || h->form != WDR_FORM_COMPACT)
+        return err;
+    const float *scale = shared + (size_t)h->shared_points * WDR_CAL_COMPACT_COEFFS;
+    for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++)
+        if (!finite_f(scale[k]) || !(scale[k] > 0.0f) || !finite_f(scale[WDR_CAL_COMPACT_COEFFS + k]))
+            return WDR_E_NUMERIC;
     return WDR_OK;
 }
 
@@ -138,9 +169,20 @@ const float *wdr_cal_row_coeffs(const wdr_cal_view *v, int row, int k)
     return (const float *)(const void *)(v->payload + (size_t)row * v->row_stride + (size_t)k * v->h.width * 4u);
 }
 
+const uint32_t *wdr_cal_row_compact(const wdr_cal_view *v, int row)
+{
+    return (const uint32_t *)(const void *)(v->payload + (size_t)row * v->row_stride);
+}
+
 const uint8_t *wdr_cal_row_flags(const wdr_cal_view *v, int row)
 {
-    return v->payload + (size_t)row * v->row_stride + (size_t)v->h.n_coeffs * v->h.width * 4u;
+    size_t coeff_bytes = v->h.form == WDR_FORM_COMPACT ? 2u : 4u;
+    return v->payload + (size_t)row * v->row_stride + (size_t)v->h.n_coeffs * v->h.width * coeff_bytes;
+}
+
+const float *wdr_cal_compact_scales(const wdr_cal_view *v)
+{
+    return v->shared + (size_t)v->h.shared_points * WDR_CAL_COMPACT_COEFFS;
 }
 
 static void encode_rows(const wdr_cal_header *h, const float *coeffs, const uint8_t *flags, uint8_t *rows)
@@ -162,9 +204,10 @@ static void seal(wdr_cal_header *h, uint8_t *out)
 {
     h->magic = WDR_CAL_MAGIC;
     h->version_major = WDR_CAL_VERSION_MAJOR;
-    h->version_minor = h->form == WDR_FORM_BASIS ? 1 : 0; /* older readers keep reading the other forms */
+    /* older readers keep reading the forms they know */
+    h->version_minor = h->form == WDR_FORM_COMPACT ? 2 : h->form == WDR_FORM_BASIS ? 1 : 0;
     h->reserved = 0;
-    h->payload_len = wdr_cal_shared_bytes(h) + wdr_cal_row_stride(h->width, h->n_coeffs) * h->height;
+    h->payload_len = wdr_cal_shared_bytes(h) + wdr_cal_form_row_stride(h->form, h->width, h->n_coeffs) * h->height;
     h->payload_crc = wdr_crc32(0, out + WDR_CAL_HEADER_SIZE, h->payload_len);
     header_pack(h, out);
     h->header_crc = wdr_crc32(0, out, WDR_CAL_HEADER_SIZE - 4);
@@ -188,6 +231,58 @@ void wdr_cal_encode_basis(wdr_cal_header *h, const float *shared, const float *c
     seal(h, out);
 }
 
+/* Offset and scale of coefficient k: the middle of its range over the table, and the half-range
+ * that maps to WDR_CAL_COMPACT_Q_MAX (what every pixel shares goes into the offset, so the int16
+ * keep only the spread between pixels). */
+static void compact_range(const float *coeffs, size_t plane, uint32_t k, float *offset, float *scale)
+{
+    float lo = coeffs[k * plane], hi = lo;
+    for (size_t i = 1; i < plane; i++) {
+        float c = coeffs[k * plane + i];
+        lo = c < lo ? c : lo;
+        hi = c > hi ? c : hi;
+    }
+    *offset = 0.5f * (lo + hi);
+    float half = hi - *offset > *offset - lo ? hi - *offset : *offset - lo;
+    *scale = half > 0.0f ? half / (float)WDR_CAL_COMPACT_Q_MAX : 1.0f;
+}
+
+static uint16_t compact_q(float c, float offset, float scale)
+{
+    float q = (c - offset) / scale;
+    q = q > (float)WDR_CAL_COMPACT_Q_MAX ? (float)WDR_CAL_COMPACT_Q_MAX : q;
+    q = q < -(float)WDR_CAL_COMPACT_Q_MAX ? -(float)WDR_CAL_COMPACT_Q_MAX : q;
+    return (uint16_t)(int16_t)(q < 0.0f ? q - 0.5f : q + 0.5f);
+}
+
+void wdr_cal_encode_compact(wdr_cal_header *h, const float *shared, const float *coeffs, const uint8_t *flags,
+                            uint8_t *out)
+{
+    const uint32_t n = WDR_CAL_COMPACT_COEFFS, w = h->width;
+    const size_t plane = (size_t)w * h->height;
+    h->form = WDR_FORM_COMPACT;
+    h->n_coeffs = (uint16_t)n;
+    uint8_t *p = out + WDR_CAL_HEADER_SIZE;
+    for (uint32_t j = 0; j < h->shared_points * n; j++, p += 4)
+        wdr_put_f32(p, shared[j]);
+    float scale[WDR_CAL_COMPACT_COEFFS], offset[WDR_CAL_COMPACT_COEFFS];
+    for (uint32_t k = 0; k < n; k++)
+        compact_range(coeffs, plane, k, &offset[k], &scale[k]);
+    for (uint32_t k = 0; k < n; k++, p += 4)
+        wdr_put_f32(p, scale[k]);
+    for (uint32_t k = 0; k < n; k++, p += 4)
+        wdr_put_f32(p, offset[k]);
+    const uint32_t stride = wdr_cal_form_row_stride(WDR_FORM_COMPACT, h->width, (uint16_t)n);
+    memset(p, 0, (size_t)stride * h->height);
+    for (uint32_t r = 0; r < h->height; r++, p += stride) {
+        for (uint32_t c = 0; c < w; c++)
+            for (uint32_t k = 0; k < n; k++)
+                wdr_put_u16(p + 2u * (c * n + k), compact_q(coeffs[k * plane + (size_t)r * w + c], offset[k], scale[k]));
+        memcpy(p + (size_t)n * w * 2u, flags + (size_t)r * w, w);
+    }
+    seal(h, out);
+}
+
 static int header_check(const wdr_cal_header *h)
 {
     if (h->width == 0 || h->height == 0 || h->width > WDR_CAL_MAX_WIDTH)
@@ -197,13 +292,17 @@ static int header_check(const wdr_cal_header *h)
     if (h->model >= WDR_MODEL_COUNT || h->reserved || h->out_max == 0 || h->raw_max == 0)
         return WDR_E_INVAL;
     if (h->form == WDR_FORM_BASIS ? h->shared_points < 2 || h->shared_points * h->n_coeffs > WDR_CAL_MAX_SHARED_FLOATS
-                                  : h->shared_points != 0)
+        : h->form == WDR_FORM_COMPACT
+            ? h->shared_points < 2 ||
+                  (uint64_t)h->shared_points * WDR_CAL_COMPACT_COEFFS > WDR_CAL_MAX_SHARED_FLOATS
+            : h->shared_points != 0)
         return WDR_E_INVAL;
     if (!finite_f(h->in_scale) || h->in_scale == 0.0f || !finite_f(h->in_offset))
         return WDR_E_INVAL;
     if (!finite_f(h->out_scale) || !(h->out_scale > 0.0f))
         return WDR_E_INVAL;
-    if (h->payload_len != wdr_cal_shared_bytes(h) + (uint32_t)h->height * wdr_cal_row_stride(h->width, h->n_coeffs))
+    if (h->payload_len !=
+        wdr_cal_shared_bytes(h) + (uint32_t)h->height * wdr_cal_form_row_stride(h->form, h->width, h->n_coeffs))
         return WDR_E_INVAL;
     return WDR_OK;
 }
@@ -222,7 +321,7 @@ static int coefficients_check(const wdr_cal_view *v)
 {
     uint32_t bad = 0;
     for (int row = 0; row < v->h.height; row++) {
-        for (int k = 0; k < v->h.n_coeffs; k++) {
+        for (int k = 0; v->h.form != WDR_FORM_COMPACT && k < v->h.n_coeffs; k++) { /* int16: always finite */
             const float *c = wdr_cal_row_coeffs(v, row, k);
             for (int i = 0; i < v->h.width; i++)
                 if (!finite_f(c[i]))
@@ -244,6 +343,7 @@ int wdr_cal_parse(const void *buf, size_t len, wdr_cal_view *out)
         return WDR_E_INVAL;
     out->payload = NULL;
     out->shared = NULL;
+    out->code_q = NULL;
     if (len < WDR_CAL_HEADER_SIZE)
         return WDR_E_TRUNCATED;
     header_unpack(p, &out->h);
@@ -259,10 +359,12 @@ int wdr_cal_parse(const void *buf, size_t len, wdr_cal_view *out)
     uint32_t shared_bytes = wdr_cal_shared_bytes(&out->h);
     out->shared = shared_bytes ? (const float *)(const void *)(p + WDR_CAL_HEADER_SIZE) : NULL;
     out->payload = p + WDR_CAL_HEADER_SIZE + shared_bytes;
-    out->row_stride = wdr_cal_row_stride(out->h.width, out->h.n_coeffs);
+    out->row_stride = wdr_cal_form_row_stride(out->h.form, out->h.width, out->h.n_coeffs);
+    out->code_q = NULL;
+    out->code_shift = 0;
     if (wdr_crc32(0, p + WDR_CAL_HEADER_SIZE, out->h.payload_len) != out->h.payload_crc)
         return WDR_E_CORRUPT;
-    if (out->shared && wdr_cal_shared_check(out->shared, out->h.n_coeffs, out->h.shared_points))
+    if (out->shared && wdr_cal_shared_ok(&out->h, out->shared))
         return WDR_E_NUMERIC;
     return coefficients_check(out);
 }

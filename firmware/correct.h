@@ -14,8 +14,15 @@
 int wdr_correct_row(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out);
 
 /* The same correction on unquantised codes (simulator studies, host reports, torture tests):
- * out gets v * out_scale without rounding, clamped to [0, out_max]; non-finite input gives 0. */
+ * out gets v * out_scale without rounding, clamped to [0, out_max]; non-finite input gives 0.
+ * COMPACT: the fixed-point sums of the two codes around y, interpolated, without the final
+ * rounding (the controller's own arithmetic between codes). Host only: defined in
+ * host/lib/correct_f32.c (the controller never sees a float code); same errors. */
 int wdr_correct_row_f32(const wdr_cal_view *cal, int row, const float *raw, float *out);
+
+/* The checks both entry points make: 1 if the view, its form and coefficient count, the row and
+ * both pointers are usable. */
+int wdr_correct_row_ok(const wdr_cal_view *cal, int row, const void *raw, const void *out);
 
 /* Make a BASIS view fast for wdr_correct_row: a code's position t(y), its point and its fraction
  * are the same for every pixel, so tabulate sum-ready basis values once per table instead of
@@ -30,5 +37,15 @@ int wdr_correct_row_f32(const wdr_cal_view *cal, int row, const float *raw, floa
  * @retval WDR_E_INVAL      not a BASIS view with its shared block, or raw_max of 0
  * @retval WDR_E_TOO_LARGE  capacity below (raw_max + 1) * n_coeffs; the view is left unchanged */
 int wdr_correct_per_code(wdr_cal_view *cal, float *points, size_t capacity);
+
+/* The same for a COMPACT view: points[4y..4y+3] get code y's fixed-point base and points (int16
+ * pairs, 2^-code_shift output codes each, correct_inline.h) for every code 0..raw_max (capacity
+ * words, at least 4 (raw_max + 1)); the view's code_q and code_shift then point at them and
+ * wdr_correct_row does two SMLAD per pixel. Results are the same bits as without them. Call again
+ * whenever the shared block changes; points must outlive the view.
+ * @retval WDR_OK
+ * @retval WDR_E_INVAL      not a COMPACT view with its shared block, or raw_max of 0
+ * @retval WDR_E_TOO_LARGE  capacity below 4 (raw_max + 1); the view is left unchanged */
+int wdr_correct_per_code_compact(wdr_cal_view *cal, uint32_t *points, size_t capacity);
 
 #endif

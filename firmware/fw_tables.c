@@ -12,7 +12,10 @@
  * activation so READOUT does one dot product per pixel instead of locating and interpolating
  * every pixel's code in the shared block. Outside wdr_fw because wdr_fw.h fixes its layout; a
  * program has one firmware (wdr_fw.h), so one table. A wider ADC than it holds interpolates. */
-static float cal_code_points[WDR_FW_CAL_CODES * WDR_FW_MAX_CAL_COEFFS];
+static union {
+    float basis[WDR_FW_CAL_CODES * WDR_FW_MAX_CAL_COEFFS];
+    uint32_t compact[WDR_FW_CAL_CODES * 4u]; /* COMPACT: base and two int16 pairs per code, 16 bytes */
+} cal_code_points;
 
 static uint32_t data_addr(const wdr_fw *fw, int kind, int slot)
 {
@@ -69,7 +72,7 @@ static void row_view(const wdr_fw *fw, const wdr_cal_view *full, wdr_cal_view *r
 /* The kernel trusts its table: finite coefficients, denominators away from zero. */
 static int cal_row_check(const wdr_cal_view *rv, uint32_t *bad)
 {
-    for (int k = 0; k < rv->h.n_coeffs; k++) {
+    for (int k = 0; rv->h.form != WDR_FORM_COMPACT && k < rv->h.n_coeffs; k++) { /* int16: always finite */
         const float *c = wdr_cal_row_coeffs(rv, 0, k);
         for (int i = 0; i < rv->h.width; i++)
             if (!finite_bits(c[i]))
@@ -106,7 +109,7 @@ static int cal_header(wdr_fw *fw, uint32_t addr, uint32_t len, wdr_cal_view *v)
         return WDR_E_TRUNCATED;
     if (len > WDR_CAL_HEADER_SIZE + (uint64_t)v->h.payload_len)
         return WDR_E_INVAL;
-    v->row_stride = wdr_cal_row_stride(v->h.width, v->h.n_coeffs);
+    v->row_stride = wdr_cal_form_row_stride(v->h.form, v->h.width, v->h.n_coeffs);
     v->payload = NULL;
     v->shared = NULL;
     return WDR_OK;
@@ -136,7 +139,7 @@ static int cal_shared_load(wdr_fw *fw, uint32_t addr, wdr_cal_view *v, uint32_t 
     if (err)
         return err;
     *crc = wdr_crc32(*crc, buf, bytes);
-    *content = wdr_cal_shared_check(buf, v->h.n_coeffs, v->h.shared_points);
+    *content = wdr_cal_shared_ok(&v->h, buf);
     v->shared = buf;
     return WDR_OK;
 }
@@ -204,7 +207,12 @@ void wdr_fw_table_activate(wdr_fw *fw, int kind, int slot)
         if (fw->cal.shared) {
             fw->cal_shared_buf ^= 1; /* the staging buffer the check filled is now the active one */
             /* TOO_LARGE (more codes than WDR_FW_CAL_CODES) leaves the view interpolating */
-            (void)wdr_correct_per_code(&fw->cal, cal_code_points, sizeof cal_code_points / sizeof cal_code_points[0]);
+            if (fw->cal.h.form == WDR_FORM_COMPACT)
+                (void)wdr_correct_per_code_compact(&fw->cal, cal_code_points.compact,
+                                                   sizeof cal_code_points.compact / sizeof(uint32_t));
+            else
+                (void)wdr_correct_per_code(&fw->cal, cal_code_points.basis,
+                                           sizeof cal_code_points.basis / sizeof(float));
         }
     }
 }

@@ -12,12 +12,17 @@
 
 #define WDR_CAL_MAGIC 0x4c414357u /* "WCAL" */
 #define WDR_CAL_VERSION_MAJOR 1
-#define WDR_CAL_VERSION_MINOR 1 /* 1: the BASIS form and its shared block */
+#define WDR_CAL_VERSION_MINOR 2 /* 1: the BASIS form and its shared block; 2: the COMPACT form */
 #define WDR_CAL_HEADER_SIZE 64u
 #define WDR_CAL_MAX_COEFFS 8u
 #define WDR_CAL_MAX_WIDTH 4096u
 /* BASIS: at most this many float32 in the shared block (16 KiB), so a firmware can hold it in RAM */
 #define WDR_CAL_MAX_SHARED_FLOATS 4096u
+/* COMPACT: coefficients per pixel (two SMLAD pairs), and the largest stored coefficient */
+#define WDR_CAL_COMPACT_COEFFS 4u
+#define WDR_CAL_COMPACT_Q_MAX 32767
+/* COMPACT: floats after the shared points: 4 coefficient scales, then 4 offsets */
+#define WDR_CAL_COMPACT_EXTRA 8u
 
 /* Per-pixel formula. Never renumber: tables in flash use these ids. */
 enum wdr_cal_form {
@@ -29,6 +34,10 @@ enum wdr_cal_form {
                               K points (minor version 1): t = y * in_scale + in_offset clamped to
                               [0, K-1], v = sum_k c_k B_k(t), B_k interpolated linearly. The sharp
                               bends every pixel's map shares live in the shared table */
+    WDR_FORM_COMPACT = 4,  /* BASIS with 4 functions and per-pixel int16 coefficients q_k (minor
+                              version 2): c_k = offset_k + q_k * scale_k, 4 f32 scales and 4 f32
+                              offsets after the shared points; 9 bytes per pixel, a fixed-point
+                              kernel on the controller */
     WDR_FORM_COUNT
 };
 
@@ -59,7 +68,7 @@ typedef struct wdr_cal_header {
     uint32_t sensor_id;
     uint16_t width, height;
     uint16_t form;         /* enum wdr_cal_form */
-    uint16_t n_coeffs;     /* per pixel: 0 (IDENTITY), 3 (MOEBIUS), 2..8 (POLY, BASIS) */
+    uint16_t n_coeffs;     /* per pixel: 0 (IDENTITY), 3 (MOEBIUS), 2..8 (POLY, BASIS), 4 (COMPACT) */
     uint16_t model;        /* enum wdr_cal_model_id */
     uint16_t operator_id;  /* enum wdr_operator_id of the ramp it was calibrated with */
     float in_scale;        /* POLY: u = y * in_scale + in_offset keeps u in about [-1, 1];
@@ -69,7 +78,8 @@ typedef struct wdr_cal_header {
     uint16_t out_max;      /* largest output code */
     uint16_t raw_max;      /* largest raw ADC code (2^bits - 1) */
     uint32_t bad_pixels;   /* number of pixels with a flag set */
-    uint32_t shared_points;/* BASIS: K, points per basis function (2..WDR_CAL_MAX_SHARED_FLOATS / n);
+    uint32_t shared_points;/* BASIS, COMPACT: K, points per basis function (2..WDR_CAL_MAX_SHARED_FLOATS / n;
+                              the COMPACT block holds 4 scales more);
                               zero for the other forms (minor version 0: reserved, zero) */
     uint32_t reserved;     /* zero */
     uint32_t payload_len;  /* bytes after the header: shared block + height * row_stride */
@@ -81,20 +91,32 @@ typedef struct wdr_cal_header {
  * Row r occupies row_stride bytes at payload + r * row_stride: n_coeffs planes of width float32
  * (plane k holds coefficient k of every pixel of the row), then width flag bytes, padded to 4.
  * BASIS tables carry a shared block before the first row: K points of n float32 each, point-major
- * (shared[j * n + k] = B_k at point j), so one pixel's lookups share a cache line. */
+ * (shared[j * n + k] = B_k at point j), so one pixel's lookups share a cache line.
+ * COMPACT rows are pixel-major instead: 4 int16 per pixel (q0 q1 q2 q3, 8 bytes, two words a
+ * pixel for the kernel's SMLAD pairs), then the flags; its shared block ends with 4 f32 scales
+ * and 4 f32 offsets. */
 typedef struct wdr_cal_view {
     wdr_cal_header h;
     const uint8_t *payload; /* first row; NULL for the identity */
     uint32_t row_stride;
-    const float *shared;    /* BASIS: the shared block (a firmware may point it at a RAM copy); else NULL */
+    const float *shared;    /* BASIS, COMPACT: the shared block (a firmware may point it at a RAM copy); else NULL */
+    /* COMPACT after wdr_correct_per_code_compact: per raw code 4 words, the offsets' base and two
+     * int16 pairs (the kernel's fixed-point points, 2^-code_shift output codes), else NULL
+     * (computed per pixel) */
+    const uint32_t *code_q;
+    uint32_t code_shift;
 } wdr_cal_view;
 
-/* Bytes of one row block and of a whole table (header included). */
+/* Bytes of one row block and of a whole table (header included); wdr_cal_row_stride is the
+ * float forms', wdr_cal_form_row_stride any form's (COMPACT: 8 bytes a pixel, then the flags). */
 uint32_t wdr_cal_row_stride(uint16_t width, uint16_t n_coeffs);
+uint32_t wdr_cal_form_row_stride(uint16_t form, uint16_t width, uint16_t n_coeffs);
 size_t wdr_cal_size(uint16_t width, uint16_t height, uint16_t n_coeffs);
-/* Bytes of a BASIS table's shared block (0 for the other forms), and of a whole BASIS table. */
+/* Bytes of a BASIS or COMPACT table's shared block (0 for the other forms), and of a whole BASIS
+ * or COMPACT table. */
 uint32_t wdr_cal_shared_bytes(const wdr_cal_header *h);
 size_t wdr_cal_size_basis(uint16_t width, uint16_t height, uint16_t n_coeffs, uint32_t shared_points);
+size_t wdr_cal_size_compact(uint16_t width, uint16_t height, uint32_t shared_points);
 
 /* Coefficients needed by a form (n for POLY is the caller's choice, 2..8). */
 int wdr_cal_form_coeffs_ok(uint16_t form, uint16_t n_coeffs);
@@ -103,6 +125,9 @@ int wdr_cal_form_coeffs_ok(uint16_t form, uint16_t n_coeffs);
  * (the per-pixel fit would be rank-deficient and its coefficients arbitrary).
  * @retval WDR_OK, WDR_E_NUMERIC */
 int wdr_cal_shared_check(const float *shared, uint16_t n_coeffs, uint32_t shared_points);
+/* The same for a header's form: BASIS as above; COMPACT also needs its 4 scales finite and > 0.
+ * @retval WDR_OK, WDR_E_NUMERIC */
+int wdr_cal_shared_ok(const wdr_cal_header *h, const float *shared);
 
 /* The identity correction for a sensor without a table: output = raw * out_scale.
  * @retval WDR_OK
@@ -126,9 +151,13 @@ int wdr_cal_parse(const void *buf, size_t len, wdr_cal_view *out);
  * @retval WDR_OK, WDR_E_GEOMETRY */
 int wdr_cal_check_geometry(const wdr_cal_view *v, uint32_t sensor_id, uint16_t width, uint16_t height);
 
-/* Row accessors into a parsed table (not for the identity). */
+/* Row accessors into a parsed table (not for the identity). wdr_cal_row_coeffs is the float
+ * forms' plane k; wdr_cal_row_compact a COMPACT row's 2 words per pixel; wdr_cal_compact_scales
+ * the 4 scales of a COMPACT shared block. */
 const float *wdr_cal_row_coeffs(const wdr_cal_view *v, int row, int k);
+const uint32_t *wdr_cal_row_compact(const wdr_cal_view *v, int row);
 const uint8_t *wdr_cal_row_flags(const wdr_cal_view *v, int row);
+const float *wdr_cal_compact_scales(const wdr_cal_view *v);
 
 /* Serialise: header h (magic, version, payload_len and CRCs are filled here) and, for each row,
  * coefficients coeffs[(k * height + row) * width + col] and flags[row * width + col], into out,
@@ -138,5 +167,12 @@ void wdr_cal_encode(wdr_cal_header *h, const float *coeffs, const uint8_t *flags
  * shared_points * n_coeffs values, point-major; out holds wdr_cal_size_basis(...) bytes. */
 void wdr_cal_encode_basis(wdr_cal_header *h, const float *shared, const float *coeffs, const uint8_t *flags,
                           uint8_t *out);
+/* The same for a COMPACT table (h->shared_points set; form and n_coeffs are filled here): shared
+ * as for BASIS with 4 functions, coeffs as for wdr_cal_encode; each coefficient k is quantised to
+ * int16 q = round((c - offset_k) / scale_k), offset_k the middle of c_k's range over the table and
+ * scale_k its half-range / 32767 (1 if all equal);
+ * out holds wdr_cal_size_compact(...) bytes. */
+void wdr_cal_encode_compact(wdr_cal_header *h, const float *shared, const float *coeffs, const uint8_t *flags,
+                            uint8_t *out);
 
 #endif

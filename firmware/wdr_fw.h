@@ -44,7 +44,7 @@ typedef struct wdr_fw {
     uint32_t cal_row[WDR_FW_CAL_ROW_MAX_BYTES / 4u];
     /* A BASIS table's shared block is needed by every row: held in RAM, active and staging, so
      * checking a new table never disturbs the one in use. */
-    float cal_shared[2][WDR_FW_CAL_SHARED_MAX_FLOATS];
+    float cal_shared[2][WDR_FW_CAL_SHARED_MAX_FLOATS + WDR_CAL_COMPACT_EXTRA]; /* COMPACT: + scales, offsets */
     int cal_shared_buf;           /* index of the active table's shared block */
 
     /* Frame sequencing */

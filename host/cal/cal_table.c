@@ -3,6 +3,7 @@
 #include "cal_basis.h"
 #include "cal_fit.h"
 #include "wdr_err.h"
+#include "wdr_lut.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -147,8 +148,8 @@ static int poly_coeffs(const wdr_cal_result *res, long i, int nc, double *c)
 static void identity_coeffs(const wdr_cal_result *res, int form, int nc, double *c)
 {
     memset(c, 0, sizeof(double) * (size_t)nc);
-    if (form == WDR_FORM_MOEBIUS || form == WDR_FORM_BASIS) {
-        c[0] = 1; /* BASIS: the first function is the array's mean map */
+    if (form == WDR_FORM_MOEBIUS || form == WDR_FORM_BASIS || form == WDR_FORM_COMPACT) {
+        c[0] = 1; /* BASIS, COMPACT: the first function is the array's mean map */
         return;
     }
     c[0] = c[1] = res->cfg.raw_max / 2; /* v = y with u = 2y/raw_max - 1 */
@@ -158,7 +159,7 @@ static int pixel_coeffs(const wdr_cal_result *res, const wdr_basis *basis, long 
 {
     if (res->flags[i])
         return 0;
-    if (form == WDR_FORM_BASIS) {
+    if (form == WDR_FORM_BASIS || form == WDR_FORM_COMPACT) {
         wdr_map_samples s;
         wdr_cal_map_samples(res, i, &s);
         return wdr_cal_basis_coeffs(basis, &s, c);
@@ -177,7 +178,7 @@ static int pixel_coeffs(const wdr_cal_result *res, const wdr_basis *basis, long 
 static int check_form(const wdr_cal_result *res, char *err, int errlen)
 {
     const wdr_cal_config *cfg = &res->cfg;
-    int nc = cfg->form == WDR_FORM_MOEBIUS ? 3 : cfg->n_coeffs;
+    int nc = cfg->form == WDR_FORM_MOEBIUS ? 3 : cfg->form == WDR_FORM_COMPACT ? 4 : cfg->n_coeffs;
     if (!wdr_cal_form_coeffs_ok((uint16_t)cfg->form, (uint16_t)nc) || cfg->form == WDR_FORM_IDENTITY) {
         snprintf(err, (size_t)errlen, "table form %d with %d coefficients is not supported", cfg->form, nc);
         return WDR_E_INVAL;
@@ -205,14 +206,17 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     if (rc)
         return rc;
     const wdr_cal_config *cfg = &res->cfg;
-    int form = cfg->form, nc = form == WDR_FORM_MOEBIUS ? 3 : cfg->n_coeffs;
+    int form = cfg->form, nc = form == WDR_FORM_MOEBIUS ? 3 : form == WDR_FORM_COMPACT ? 4 : cfg->n_coeffs;
+    int shared = form == WDR_FORM_BASIS || form == WDR_FORM_COMPACT;
     long np = (long)res->width * res->height;
     wdr_basis basis = {0};
-    if (form == WDR_FORM_BASIS && (rc = wdr_cal_basis_learn(res, nc, &basis, err, errlen)))
+    if (shared && (rc = wdr_cal_basis_learn(res, nc, &basis, err, errlen)))
         return rc;
     size_t len = form == WDR_FORM_BASIS
                      ? wdr_cal_size_basis((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc,
                                           (uint32_t)basis.points)
+                 : form == WDR_FORM_COMPACT
+                     ? wdr_cal_size_compact((uint16_t)res->width, (uint16_t)res->height, (uint32_t)basis.points)
                      : wdr_cal_size((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc);
     float *coeffs = malloc(sizeof(float) * (size_t)nc * (size_t)np);
     uint8_t *flags = malloc((size_t)np), *buf = aligned_alloc(8, (len + 7) & ~(size_t)7);
@@ -239,10 +243,13 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
                         .operator_id = (uint16_t)operator_id, .in_scale = (float)(2 / cfg->raw_max),
                         .in_offset = -1.0f, .out_scale = cfg->out_scale, .out_max = cfg->out_max,
                         .raw_max = (uint16_t)cfg->raw_max, .bad_pixels = bad};
-    if (form == WDR_FORM_BASIS) {
+    if (shared) {
         h.in_scale = (float)(1 / basis.step), h.in_offset = (float)(-basis.lo / basis.step); /* as kernel_basis */
         h.shared_points = (uint32_t)basis.points;
-        wdr_cal_encode_basis(&h, basis.table, coeffs, flags, buf);
+        if (form == WDR_FORM_COMPACT) /* the same fit, coefficients quantised to int16 by the encoder */
+            wdr_cal_encode_compact(&h, basis.table, coeffs, flags, buf);
+        else
+            wdr_cal_encode_basis(&h, basis.table, coeffs, flags, buf);
     } else
         wdr_cal_encode(&h, coeffs, flags, buf);
     wdr_cal_basis_free(&basis);
@@ -251,4 +258,12 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     *out = buf;
     *out_len = len;
     return WDR_OK;
+}
+
+void wdr_cal_default_form(wdr_cal_config *cfg, int operator_id)
+{
+    if (cfg->model != WDR_MODEL_SPLINE || operator_id == WDR_OP_DRAGO || operator_id == WDR_OP_TUMBLIN_RUSHMEIER)
+        return;
+    cfg->form = WDR_FORM_COMPACT;
+    cfg->n_coeffs = WDR_CAL_COMPACT_COEFFS;
 }

@@ -17,7 +17,8 @@ int wdr_transport_open(const char *address, wdr_transport **out, char *err, int 
 {
     *out = NULL;
     if (!address || !*address) {
-        snprintf(err, (size_t)errlen, "no device given: use --device sim:/path.sock or usb[:BUS-ADDR], or set WDR_DEVICE");
+        snprintf(err, (size_t)errlen, "no device given: use --device sim:/path.sock, usb[:BUS-ADDR], serial:/dev/tty[@BAUD], "
+                                      "unix:/path or tcp:HOST:PORT, or set WDR_DEVICE");
         return WDR_E_INVAL;
     }
     if (!strncmp(address, "sim:", 4))
@@ -26,7 +27,15 @@ int wdr_transport_open(const char *address, wdr_transport **out, char *err, int 
         return wdr_transport_open_usb(NULL, out, err, errlen);
     if (!strncmp(address, "usb:", 4))
         return wdr_transport_open_usb(address + 4, out, err, errlen);
-    snprintf(err, (size_t)errlen, "bad device address '%s': expected sim:/path.sock, usb or usb:BUS-ADDR", address);
+    if (!strncmp(address, "serial:", 7))
+        return wdr_transport_open_serial(address + 7, out, err, errlen);
+    if (!strncmp(address, "unix:", 5))
+        return wdr_transport_open_unix(address + 5, out, err, errlen);
+    if (!strncmp(address, "tcp:", 4))
+        return wdr_transport_open_tcp(address + 4, out, err, errlen);
+    snprintf(err, (size_t)errlen,
+             "bad device address '%s': expected sim:/path.sock, usb[:BUS-ADDR], serial:/dev/tty[@BAUD], "
+             "unix:/path or tcp:HOST:PORT", address);
     return WDR_E_INVAL;
 }
 

@@ -34,7 +34,9 @@ struct wdr_transport {
 };
 
 /* Open a board by address: "sim:/path/to.sock" (the simulated board's socket), "usb" (the only
- * wdrcam USB board) or "usb:BUS-ADDR" (e.g. "usb:1-7"). err gets a message naming the address.
+ * wdrcam USB board), "usb:BUS-ADDR" (e.g. "usb:1-7"), "serial:/dev/ttyACM0[@BAUD]" (a board on a
+ * serial port), "unix:/path" or "tcp:HOST:PORT" (an emulated board's UART, tests/target). err
+ * gets a message naming the address.
  * @retval WDR_OK
  * @retval WDR_E_INVAL   malformed address
  * @retval WDR_E_ABSENT  nothing answers at that address
@@ -88,5 +90,10 @@ int64_t wdr_transport_now_ms(void);
 /* Backends (transport_socket.c, transport_usb.c); use wdr_transport_open instead. */
 int wdr_transport_open_socket(const char *path, wdr_transport **out, char *err, int errlen);
 int wdr_transport_open_usb(const char *bus_addr, wdr_transport **out, char *err, int errlen);
+/* Byte streams (transport_serial.c): "PATH[@BAUD]" a tty in raw 8N1 (default 115200 baud);
+ * a unix socket path or "HOST:PORT" to an emulated board's UART (QEMU -serial ...,server). */
+int wdr_transport_open_serial(const char *spec, wdr_transport **out, char *err, int errlen);
+int wdr_transport_open_unix(const char *path, wdr_transport **out, char *err, int errlen);
+int wdr_transport_open_tcp(const char *spec, wdr_transport **out, char *err, int errlen);
 
 #endif

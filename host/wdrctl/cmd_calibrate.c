@@ -186,11 +186,13 @@ int cmd_calibrate(int argc, char **argv)
         return wdrctl_fail(EX_USAGE, "calibrate: --form moebius is exact only for --model simple3");
     if (o.form >= 0)
         r.cfg.form = o.form;
+    if (o.form == WDR_FORM_COMPACT)
+        r.cfg.n_coeffs = WDR_CAL_COMPACT_COEFFS;
     if (o.device) {
         device_src d;
         wdr_cal_source src;
         if ((rc = open_device(&o, &d, &src)) == EX_OK) {
-            cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits);
+            cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits); /* the board's operator is unknown here: basis-8 */
             rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model);
             if (rc == EX_OK && o.upload)
                 rc = upload_table(&d, &r);
@@ -206,6 +208,8 @@ int cmd_calibrate(int argc, char **argv)
     if ((rc = cal_load_board(o.board, &b)) != EX_OK || (rc = cal_open_sim(&o, &b, &c)) != EX_OK)
         return rc;
     cal_set_output(&o, &r.cfg, (unsigned)b.adc_bits);
+    if (o.form < 0)
+        wdr_cal_default_form(&r.cfg, op->id);
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
     rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model);
