@@ -28,6 +28,8 @@ void wdr_cal_config_defaults(wdr_cal_config *c, int model)
     c->hot_frac = 0.25;
     c->max_residual = 0.05;
     c->tie_codes = 0.5;
+    c->tie_sigmas = 5;
+    c->spacing_sigmas = 3;
 }
 
 static int levels_needed(const wdr_cal_config *cfg)
@@ -113,7 +115,7 @@ static int alloc_result(wdr_cal_result *res, long np)
 }
 
 /* Median response per level over the pixels not flagged so far. */
-static int level_medians(const wdr_cal_levels *lv, const uint8_t *flags, double *med)
+int wdr_cal_level_medians(const wdr_cal_levels *lv, const uint8_t *flags, double *med)
 {
     long np = (long)lv->width * lv->height;
     float *good = malloc(sizeof(float) * 2 * (size_t)np);
@@ -122,7 +124,7 @@ static int level_medians(const wdr_cal_levels *lv, const uint8_t *flags, double 
     for (int k = 0; k < lv->n; k++) {
         long m = 0;
         for (long i = 0; i < np; i++)
-            if (!flags[i])
+            if (!flags || !flags[i])
                 good[m++] = lv->frames[(long)k * np + i];
         med[k] = m ? wdr_cal_median_of(good, m, good + np) : 0;
     }
@@ -134,6 +136,8 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
 {
     long np = (long)lv->width * lv->height;
     double u[WDR_CAL_MAX_LEVELS], y[WDR_CAL_MAX_LEVELS], w[WDR_CAL_MAX_LEVELS];
+    double tol[WDR_CAL_MAX_LEVELS], w_noise[WDR_CAL_MAX_LEVELS];
+    wdr_cal_level_tolerances(lv, &res->cfg, tol, w_noise);
     for (int k = 0; k < lv->n; k++) {
         u[k] = lv->amps[k] / res->x_scale;
         w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, lv->amps[k]), 1e-9);
@@ -150,7 +154,7 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
         else if (res->model == WDR_MODEL_POLYMAP)
             st = wdr_cal_fit_polymap_pixel(res, y, med, w, lv->n, par);
         else if (res->model == WDR_MODEL_SPLINE)
-            st = wdr_cal_fit_spline_pixel(y, med, lv->n, res->cfg.tie_codes, par);
+            st = wdr_cal_fit_spline_pixel(y, med, lv->n, tol, w_noise, par);
         else
             st = wdr_cal_fit_paper_pixel(res, u, y, par);
         if (st) {
@@ -194,7 +198,7 @@ int wdr_cal_fit_array(const wdr_cal_levels *lv, const wdr_cal_config *cfg, wdr_c
     }
     wdr_cal_detect_bad(lv, cfg, res->flags, &res->saturated_levels);
     double med[WDR_CAL_MAX_LEVELS];
-    if ((rc = level_medians(lv, res->flags, med)) || (rc = wdr_cal_fit_nominal(lv, res, med, err, errlen)))
+    if ((rc = wdr_cal_level_medians(lv, res->flags, med)) || (rc = wdr_cal_fit_nominal(lv, res, med, err, errlen)))
         return rc;
     fit_all_pixels(lv, res, med);
     count_flags(res);
