@@ -120,6 +120,7 @@ static void print_summary(const cal_opts *o, const cal_run *r)
         cJSON_AddNumberToObject(a, "noise_codes_per_frame", r->why.sigma_codes);
         cJSON_AddNumberToObject(a, "slope_codes_per_ln_A", r->why.slope);
         cJSON_AddNumberToObject(a, "wanted_codes", r->why.want_codes);
+        cJSON_AddNumberToObject(a, "frames_needed", r->why.needed);
         cJSON_AddBoolToObject(a, "capped", r->why.capped);
     }
     static const char *flag_names[] = {"dead", "stuck", "hot", "saturated", "unfit"};
