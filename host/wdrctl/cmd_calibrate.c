@@ -109,8 +109,10 @@ static void print_summary(const cal_opts *o, const cal_run *r)
     cJSON_AddItemToObject(j, "currents_A", cJSON_CreateDoubleArray(r->choice.amps, r->choice.n));
     cJSON_AddNumberToObject(j, "range_lo_A", r->lo);
     cJSON_AddNumberToObject(j, "range_hi_A", r->hi);
-    if (isfinite(r->choice.worst_pct))
+    if (isfinite(r->choice.worst_pct)) {
         cJSON_AddNumberToObject(j, "selection_worst_pct", r->choice.worst_pct);
+        cJSON_AddNumberToObject(j, "selection_worst_at_A", r->choice.worst_at);
+    }
     cJSON_AddNumberToObject(j, "pixels_flagged", (double)res->n_bad);
     cJSON_AddNumberToObject(j, "frames_per_level", r->frames);
     if (r->why.frames) { /* --frames auto: the level that decided and its figures */
