@@ -307,6 +307,8 @@ static void bad_pixels_flagged(void **state)
     assert_true(res.flags[HOT] & WDR_PIX_HOT);
     assert_true(res.flags[FLAT] & WDR_PIX_UNFIT);
     assert_true(res.flags[REV] & WDR_PIX_UNFIT);
+    assert_int_equal(res.status[FLAT], WDR_FIT_FLAT);     /* each for its own reason */
+    assert_int_equal(res.status[REV], WDR_FIT_REVERSED);
     assert_true(res.flags[NANPIX] != 0);
     assert_int_equal(res.n_bad, 7); /* the seven planted, no healthy pixel */
     assert_int_equal(host_sweep_bad(&res), 0);
