@@ -4,6 +4,7 @@
  * healthy pixels are bit-identical with the effect on or off; auto says why it ran or not. */
 #include "sim_test.h"
 #include "wdr_scene.h"
+#include <unistd.h>
 
 #define W 64
 #define H 32
@@ -72,9 +73,19 @@ static void defects_behave_by_physics(void **state)
     test_chip_close(&tc);
 }
 
-static void write_file(const char *path, const char *text)
+static char dir[64];
+
+/* Scene files in a fresh /tmp/wdr_* folder, removed at the end. */
+static const char *in_dir(const char *name)
 {
-    FILE *f = fopen(path, "w");
+    static char path[128];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    return path;
+}
+
+static void write_file(const char *name, const char *text)
+{
+    FILE *f = fopen(in_dir(name), "w");
     assert_non_null(f);
     fputs(text, f);
     fclose(f);
@@ -87,11 +98,13 @@ static void scene_defects_parsed_and_checked(void **state)
     wdr_scene sc;
     char err[512];
     test_board(&b, W, H);
+    snprintf(dir, sizeof dir, "/tmp/wdr_defects_XXXXXX");
+    assert_non_null(mkdtemp(dir));
     write_file("defects_ok.json", "{\"format\": \"wdrcam-scene\", \"version\": 1,"
                                   " \"illumination\": {\"pattern\": \"uniform\"},"
                                   " \"defects\": {\"hot_ppm\": 1000, \"hot_A\": 2e-11,"
                                   " \"pixels\": [{\"x\": 3, \"y\": 2, \"kind\": \"stuck\"}]}}");
-    assert_int_equal(wdr_scene_load("defects_ok.json", &b, &sc, err, sizeof err), WDR_OK);
+    assert_int_equal(wdr_scene_load(in_dir("defects_ok.json"), &b, &sc, err, sizeof err), WDR_OK);
     assert_true(sc.has_defects);
     assert_int_equal(sc.defects.n_listed, 1);
     assert_int_equal(sc.defects.listed_index[0], 2 * W + 3);
@@ -106,15 +119,19 @@ static void scene_defects_parsed_and_checked(void **state)
     write_file("defects_bad.json", "{\"format\": \"wdrcam-scene\", \"version\": 1,"
                                    " \"illumination\": {\"pattern\": \"uniform\"},"
                                    " \"defects\": {\"pixels\": [{\"x\": 3, \"y\": 2, \"kind\": \"melted\"}]}}");
-    assert_int_equal(wdr_scene_load("defects_bad.json", &b, &sc, err, sizeof err), WDR_E_INVAL);
+    assert_int_equal(wdr_scene_load(in_dir("defects_bad.json"), &b, &sc, err, sizeof err), WDR_E_INVAL);
     assert_non_null(strstr(err, "defects.pixels[0]"));
     assert_non_null(strstr(err, "melted"));
     wdr_scene_free(&sc);
     write_file("defects_typo.json", "{\"format\": \"wdrcam-scene\", \"version\": 1,"
                                     " \"illumination\": {\"pattern\": \"uniform\"}, \"defects\": {\"ded_ppm\": 3}}");
-    assert_int_equal(wdr_scene_load("defects_typo.json", &b, &sc, err, sizeof err), WDR_E_INVAL);
+    assert_int_equal(wdr_scene_load(in_dir("defects_typo.json"), &b, &sc, err, sizeof err), WDR_E_INVAL);
     assert_non_null(strstr(err, "defects.ded_ppm"));
     wdr_scene_free(&sc);
+    const char *names[] = {"defects_ok.json", "defects_bad.json", "defects_typo.json"};
+    for (int k = 0; k < 3; k++)
+        remove(in_dir(names[k]));
+    rmdir(dir);
 }
 
 int main(void)
