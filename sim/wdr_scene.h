@@ -22,6 +22,8 @@ typedef struct wdr_scene {
     int from_image;                /* 1 if the illumination is an image file */
     double below_floor, above_ceiling; /* fractions of pixels under i_min_a and over i_max_a */
     double i_min, i_max;           /* photocurrent range of the map */
+    wdr_sim_defects defects;       /* "defects": rates and listed pixels (index/kind arrays malloc'd) */
+    int has_defects;
     char illumination[160];        /* what lights it, for reports */
     char warning[640];             /* non-fatal remarks (clamped negatives, resampling), or "" */
 } wdr_scene;

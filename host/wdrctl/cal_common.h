@@ -18,7 +18,9 @@
 typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
     int select_n, frames, adc, dac, upload, json, sample, out_scale;
-    int form; /* enum wdr_cal_form; -1: the model's default */
+    const char *frames_text; /* --frames M or auto */
+    int frames_auto;         /* --frames auto (the default): chosen from the probe's measured noise */
+    int form;                /* enum wdr_cal_form; -1: the model's default */
     uint64_t seed;
 } cal_opts;
 
@@ -32,7 +34,9 @@ extern const cli_choice cal_on_off[], cal_forms[];
     {"adc", 0, CLI_CHOICE, CAL_O(adc), "on|off", "the simulated column ADC quantises (default on)", .choices = cal_on_off}
 #define CAL_ROW_DAC                                                                                                  \
     {"dac", 0, CLI_CHOICE, CAL_O(dac), "on|off", "the simulated ramp DAC quantises (default on)", .choices = cal_on_off}
-#define CAL_ROW_FRAMES {"frames", 0, CLI_INT, CAL_O(frames), "M", "frames averaged per level (default 4)", .min = 1, .max = 4096}
+#define CAL_ROW_FRAMES                                                                                               \
+    {"frames", 0, CLI_STRING, CAL_O(frames_text), "M|auto",                                                       \
+     "frames averaged per level, 1..4096 (default auto: from the measured noise)"}
 #define CAL_ROW_SAMPLE                                                                                               \
     {"sample", 0, CLI_INT, CAL_O(sample), "N", "pixels sampled to choose currents (default 256)", .min = 16,       \
      .max = 1 << 20}
@@ -56,7 +60,16 @@ typedef struct cal_run {
     uint8_t *table;
     size_t table_len;
     double lo, hi;
+    int frames;                  /* frames per level used (0: o->frames) */
+    wdr_cal_frames_choice why;   /* how --frames auto chose (frames 0: not chosen) */
 } cal_run;
+
+/* --frames auto: a contrast error of this much from temporal noise at any level (%: half the eye's 1 %), and the most
+ * frames it may ask for per level */
+#define AUTO_FRAMES_TARGET_PCT 0.5
+#define AUTO_FRAMES_MAX 64 /* where the issue found no false flag even with a fixed tolerance */
+/* The probe averages two frames per level: enough to measure the temporal noise. */
+#define PROBE_FRAMES 2
 
 /* Parse the options of cmd (wdrctl_cmd_calibrate or wdrctl_cmd_fpn_report) by its table; a board
  * command takes the board from --device or $WDR_DEVICE. Prints what is wrong. @return a sysexits code */
@@ -81,6 +94,9 @@ int cal_plan_currents(const cal_opts *o, const wdr_cal_source *src, cal_run *r, 
 int cal_acquire_and_fit(const cal_opts *o, const wdr_cal_source *src, cal_run *r, uint32_t sensor_id, int op_id);
 /* Output codes: raw_max * out_scale, at most 16 bits. */
 void cal_set_output(const cal_opts *o, wdr_cal_config *cfg, unsigned adc_bits);
+/* One DAC step in output codes (follower gain taken as 1, an upper bound): the smallest step
+ * between calibration levels the ramp resolves. */
+void cal_set_step(const wdr_board *b, wdr_cal_config *cfg);
 void cal_free_run(cal_run *r);
 
 #endif

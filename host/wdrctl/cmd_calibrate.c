@@ -99,6 +99,7 @@ static void print_summary(const cal_opts *o, const cal_run *r)
         for (int k = 0; k < r->choice.n; k++)
             printf(" %.4g", r->choice.amps[k]);
         printf(" A (0: dark reference)\nworst contrast error at selection: %.4g %%\n", r->choice.worst_pct);
+        printf("frames per level: %d%s\n", r->frames, r->why.frames ? " (auto)" : "");
         return;
     }
     cJSON *j = cJSON_CreateObject();
@@ -108,9 +109,22 @@ static void print_summary(const cal_opts *o, const cal_run *r)
     cJSON_AddItemToObject(j, "currents_A", cJSON_CreateDoubleArray(r->choice.amps, r->choice.n));
     cJSON_AddNumberToObject(j, "range_lo_A", r->lo);
     cJSON_AddNumberToObject(j, "range_hi_A", r->hi);
-    if (isfinite(r->choice.worst_pct))
+    if (isfinite(r->choice.worst_pct)) {
         cJSON_AddNumberToObject(j, "selection_worst_pct", r->choice.worst_pct);
+        cJSON_AddNumberToObject(j, "selection_worst_at_A", r->choice.worst_at);
+    }
     cJSON_AddNumberToObject(j, "pixels_flagged", (double)res->n_bad);
+    cJSON_AddNumberToObject(j, "frames_per_level", r->frames);
+    if (r->why.frames) { /* --frames auto: the level that decided and its figures */
+        cJSON *a = cJSON_AddObjectToObject(j, "frames_auto");
+        cJSON_AddNumberToObject(a, "target_pct", r->why.target_pct);
+        cJSON_AddNumberToObject(a, "decided_at_A", r->why.at_amps);
+        cJSON_AddNumberToObject(a, "noise_codes_per_frame", r->why.sigma_codes);
+        cJSON_AddNumberToObject(a, "slope_codes_per_ln_A", r->why.slope);
+        cJSON_AddNumberToObject(a, "wanted_codes", r->why.want_codes);
+        cJSON_AddNumberToObject(a, "frames_needed", r->why.needed);
+        cJSON_AddBoolToObject(a, "capped", r->why.capped);
+    }
     static const char *flag_names[] = {"dead", "stuck", "hot", "saturated", "unfit"};
     cJSON *f = cJSON_AddObjectToObject(j, "flags");
     for (int b = 0; b < 5; b++)
@@ -191,8 +205,9 @@ int cmd_calibrate(int argc, char **argv)
     if (o.device) {
         device_src d;
         wdr_cal_source src;
-        if ((rc = open_device(&o, &d, &src)) == EX_OK) {
+        if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits); /* the board's operator is unknown here: basis-8 */
+            cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */
             rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model);
             if (rc == EX_OK && o.upload)
                 rc = upload_table(&d, &r);
@@ -210,6 +225,8 @@ int cmd_calibrate(int argc, char **argv)
     cal_set_output(&o, &r.cfg, (unsigned)b.adc_bits);
     if (o.form < 0)
         wdr_cal_default_form(&r.cfg, op->id);
+    if (o.dac)
+        cal_set_step(&b, &r.cfg);
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
     rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model);
