@@ -1,11 +1,11 @@
 /* vm_board_model: the VM test's side of the virtual board's sensor model (vboard/vboard_model.h).
  *
- *   vm_board_model cal OUT.cal SCALE
+ *   vm_board_model cal OUT.cal GAIN
  *       writes a calibration table for the Linux board (hal_linux_config.h geometry) whose every
- *       pixel maps a raw code y to SCALE * y;
- *   vm_board_model check LUT.bin FRAME.pfm [SCALE]
+ *       pixel maps a raw code y to GAIN * y + an offset of -32..31 that varies with row and column;
+ *   vm_board_model check LUT.bin FRAME.pfm [GAIN]
  *       checks a captured frame pixel by pixel against what the model must have answered with
- *       that LUT played (and, given SCALE, that calibration applied). Prints the number
+ *       that LUT played (and, given GAIN, that calibration applied). Prints the number
  *       of wrong pixels and the first few; exit 0 only when every pixel matches;
  *   vm_board_model crc FILE
  *       prints the CRC-32 of a table file as `wdrctl status` shows a stored table's. */
@@ -25,26 +25,42 @@
 
 #define CODE_MAX ((1u << HAL_LINUX_ADC_BITS) - 1u)
 
-/* The identity form scaled: output = round(raw * scale), clamped. No per-pixel coefficients, so
- * the table (640 x 480 flag bytes) uploads in seconds even under TCG. */
-static int write_cal(const char *path, float scale)
+/* The per-pixel offset of the test calibration: varies along rows and columns, so that a table
+ * row applied to the wrong sensor row, or shifted by a column, shows. */
+static int pixel_offset(unsigned row, unsigned col) { return (int)((row * 7u + col * 3u) % 64u) - 32; }
+
+/* A POLY table of 2 coefficients (the smallest a table can be: 2.8 MB for VGA): pixel (r, c)
+ * maps y to gain * y + pixel_offset(r, c). */
+static int write_cal(const char *path, float gain)
 {
-    wdr_cal_view v;
-    if (wdr_cal_identity(&v, HAL_LINUX_SENSOR_ID, HAL_LINUX_WIDTH, HAL_LINUX_HEIGHT, scale, (uint16_t)CODE_MAX,
-                         (uint16_t)CODE_MAX) != WDR_OK) {
-        fprintf(stderr, "vm_board_model: scale %g: not a valid calibration\n", scale);
-        return EX_USAGE;
-    }
-    size_t size = wdr_cal_size(HAL_LINUX_WIDTH, HAL_LINUX_HEIGHT, 0);
-    uint8_t *flags = calloc(HAL_LINUX_WIDTH * HAL_LINUX_HEIGHT, 1), *out = aligned_alloc(4, (size + 3u) & ~(size_t)3u);
-    if (!flags || !out)
+    enum { W = HAL_LINUX_WIDTH, H = HAL_LINUX_HEIGHT, N = W * H };
+    size_t size = wdr_cal_size(W, H, 2);
+    float *coeffs = malloc(2u * N * sizeof *coeffs);
+    uint8_t *flags = calloc(N, 1), *out = aligned_alloc(4, (size + 3u) & ~(size_t)3u);
+    if (!coeffs || !flags || !out)
         return EX_OSERR;
-    static const float no_coeffs[1];
-    wdr_cal_encode(&v.h, no_coeffs, flags, out);
+    wdr_cal_header h;
+    memset(&h, 0, sizeof h);
+    h.sensor_id = HAL_LINUX_SENSOR_ID;
+    h.width = W;
+    h.height = H;
+    h.form = WDR_FORM_POLY; /* c0 + c1 u, u = y */
+    h.n_coeffs = 2;
+    h.in_scale = 1.0f;
+    h.out_scale = 1.0f;
+    h.out_max = (uint16_t)CODE_MAX;
+    h.raw_max = (uint16_t)CODE_MAX;
+    for (unsigned r = 0; r < H; r++)
+        for (unsigned c = 0; c < W; c++) {
+            coeffs[r * W + c] = (float)pixel_offset(r, c);
+            coeffs[N + r * W + c] = gain;
+        }
+    wdr_cal_encode(&h, coeffs, flags, out);
     FILE *f = fopen(path, "wb");
     int ok = f && fwrite(out, 1, size, f) == size;
     if (f && fclose(f) != 0)
         ok = 0;
+    free(coeffs);
     free(flags);
     free(out);
     if (!ok) {
@@ -73,16 +89,16 @@ static int load_lut(const char *path, uint16_t **codes, uint32_t *n)
     return *codes && *n <= VB_MAX_STEPS ? EX_OK : EX_DATAERR;
 }
 
-/* What the firmware sends for raw code y with the scaled identity table (rounded, clamped). */
-static double corrected(double y, int have_cal, double scale)
+/* What the firmware sends for raw code y of pixel (r, c) with the test table (rounded, clamped). */
+static double corrected(double y, unsigned r, unsigned c, int have_cal, double gain)
 {
     if (!have_cal)
         return y;
-    double v = floor(scale * y + 0.5);
+    double v = floor(gain * y + pixel_offset(r, c) + 0.5);
     return v < 0 ? 0 : v > CODE_MAX ? CODE_MAX : v;
 }
 
-static int check(const char *lut_path, const char *frame_path, int have_cal, double scale)
+static int check(const char *lut_path, const char *frame_path, int have_cal, double gain)
 {
     uint16_t *steps;
     uint32_t n;
@@ -104,7 +120,7 @@ static int check(const char *lut_path, const char *frame_path, int have_cal, dou
     long wrong = 0;
     for (int r = 0; r < h; r++)
         for (int c = 0; c < w; c++) {
-            double want = corrected(steps[vb_pixel_step((unsigned)r, (unsigned)c, n)], have_cal, scale);
+            double want = corrected(steps[vb_pixel_step((unsigned)r, (unsigned)c, n)], (unsigned)r, (unsigned)c, have_cal, gain);
             double got = px[(size_t)r * (size_t)w + (size_t)c];
             if (got != want && wrong++ < 5)
                 printf("pixel (%d, %d): %g, the model says %g\n", r, c, got, want);
@@ -137,6 +153,6 @@ int main(int argc, char **argv)
         return write_cal(argv[2], strtof(argv[3], NULL));
     if ((argc == 4 || argc == 5) && !strcmp(argv[1], "check"))
         return check(argv[2], argv[3], argc == 5, argc == 5 ? atof(argv[4]) : 1);
-    fprintf(stderr, "usage: vm_board_model cal OUT.cal SCALE | check LUT.bin FRAME.pfm [SCALE] | crc FILE\n");
+    fprintf(stderr, "usage: vm_board_model cal OUT.cal GAIN | check LUT.bin FRAME.pfm [GAIN] | crc FILE\n");
     return EX_USAGE;
 }

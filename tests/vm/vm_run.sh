@@ -24,10 +24,10 @@ abi=$("$src/tests/vm/vm_prepare.sh" "$out/cache" "$src") || rc=$?
 [ $rc = 0 ] || exit $rc
 kdir=$out/cache/$abi
 
-# Tables: a LUT built for the board's geometry, a calibration that doubles every code.
-cal_scale=2
+# Tables: a LUT built for the board's geometry, a calibration of gain 2 and a per-pixel offset.
+cal_gain=2
 "${bins[1]}" lut build --operator reinhard -o "$out/test.lut" >/dev/null
-"${bins[2]}" cal "$out/test.cal" $cal_scale
+"${bins[2]}" cal "$out/test.cal" $cal_gain
 
 # The initramfs: rebuilt every run (the programs change), uncompressed (faster under TCG).
 root=$out/initramfs
@@ -47,7 +47,7 @@ cp "$kdir"/modules/*.ko "$root/lib/modules/"
 cp "$kdir/modules.order" "$root/lib/modules/order"
 cp "$out/test.lut" "$out/test.cal" "$root/data/"
 # 32 MiB of NOR-like flash in 64 KiB blocks: two LUT and two calibration slots of a VGA board.
-printf 'CAL_SCALE=%s\nMTD_KIB=32768\nMTD_ERASE_KIB=64\n' $cal_scale >"$root/data/params.env"
+printf 'CAL_GAIN=%s\nMTD_KIB=32768\nMTD_ERASE_KIB=64\n' $cal_gain >"$root/data/params.env"
 (cd "$root" && find . | cpio -o -H newc --quiet) >"$out/initramfs.cpio"
 t_ready=$(date +%s.%N)
 
