@@ -10,11 +10,13 @@
 #include "hal_linux_internal.h"
 #include <errno.h>
 #include <fcntl.h>
+#include <linux/aio_abi.h>
 #include <linux/usb/functionfs.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/ioctl.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #define RX_RING 65536u    /* power of two */
@@ -199,23 +201,78 @@ static void wait_connected(void)
     pthread_mutex_unlock(&U.lock);
 }
 
+/* Bulk OUT reads one packet per request, so a read never waits for more than arrived (the
+ * host sends no zero-length packet after a transfer that fills its last packet). RX_DEPTH
+ * such requests stay queued through Linux AIO: the device controller fills them back to
+ * back, where one blocking read at a time would take one packet per USB frame. */
+#define RX_DEPTH 16u
+
+static uint8_t rx_buf[RX_DEPTH][SS_PACKET];
+static struct iocb rx_cb[RX_DEPTH];
+
+static int rx_submit(aio_context_t ctx, unsigned i, size_t want)
+{
+    struct iocb *cb = &rx_cb[i];
+    memset(cb, 0, sizeof *cb);
+    cb->aio_fildes = (uint32_t)U.ep_out;
+    cb->aio_lio_opcode = IOCB_CMD_PREAD;
+    cb->aio_buf = (uint64_t)(uintptr_t)rx_buf[i];
+    cb->aio_nbytes = want;
+    cb->aio_data = i;
+    while (syscall(SYS_io_submit, ctx, 1L, &cb) != 1)
+        if (!transient(errno))
+            return -1;
+    return 0;
+}
+
+static size_t out_packet_now(void)
+{
+    pthread_mutex_lock(&U.lock);
+    size_t want = U.out_packet <= SS_PACKET ? U.out_packet : SS_PACKET;
+    pthread_mutex_unlock(&U.lock);
+    return want;
+}
+
+/* Serve one connection: keep RX_DEPTH reads queued until they fail with the link. */
+static void rx_serve(aio_context_t ctx)
+{
+    size_t want = out_packet_now();
+    unsigned queued = 0;
+    for (unsigned i = 0; i < RX_DEPTH; i++)
+        queued += rx_submit(ctx, i, want) == 0;
+    while (queued > 0) {
+        struct io_event ev[RX_DEPTH];
+        long n = syscall(SYS_io_getevents, ctx, 1L, (long)RX_DEPTH, ev, NULL);
+        if (n < 0 && transient(errno))
+            continue;
+        if (n < 0)
+            return;
+        for (long k = 0; k < n; k++) { /* in completion order, which is the packets' order */
+            unsigned i = (unsigned)ev[k].data;
+            queued--;
+            if (ev[k].res > 0) {
+                ring_put(rx_buf[i], (size_t)ev[k].res);
+                lx_post(HAL_EV_USB_RX, 0);
+            }
+            if (ev[k].res >= 0 || -ev[k].res == EINTR || -ev[k].res == EAGAIN)
+                queued += rx_submit(ctx, i, want) == 0;
+            /* else ESHUTDOWN, ECONNRESET: the link went; ep0 reports it */
+        }
+    }
+}
+
 static void *rx_main(void *arg)
 {
     (void)arg;
-    uint8_t pkt[SS_PACKET];
+    aio_context_t ctx = 0;
+    if (syscall(SYS_io_setup, RX_DEPTH, &ctx) < 0) {
+        fprintf(stderr, "wdr-board: io_setup: %s: bulk OUT stops\n", strerror(errno));
+        return NULL;
+    }
     for (;;) {
         wait_connected();
-        pthread_mutex_lock(&U.lock);
-        size_t want = U.out_packet <= sizeof pkt ? U.out_packet : sizeof pkt;
-        pthread_mutex_unlock(&U.lock);
-        /* One packet per read: a read never waits for more than arrived. */
-        ssize_t n = read(U.ep_out, pkt, want);
-        if (n > 0) {
-            ring_put(pkt, (size_t)n);
-            lx_post(HAL_EV_USB_RX, 0);
-        } else if (n < 0 && !transient(errno)) {
-            usleep(1000); /* ESHUTDOWN, ECONNRESET: the link went; ep0 reports it */
-        }
+        rx_serve(ctx);
+        usleep(1000); /* until ep0 has seen the link go */
     }
     return NULL;
 }

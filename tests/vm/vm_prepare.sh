@@ -16,8 +16,15 @@ need depmod kmod
 need make make
 
 # The kernel ABI changes with security updates: take it from the metapackage every time.
-abi=$(apt-cache depends linux-image-amd64 2>/dev/null | sed -n 's/^ *Depends: linux-image-\([0-9][^ ]*-amd64\)$/\1/p' | head -1)
-[ -n "$abi" ] || skip "apt-cache knows no linux-image-amd64 (run apt-get update?)"
+current_abi() {
+    apt-cache depends linux-image-amd64 2>/dev/null | sed -n 's/^ *Depends: linux-image-\([0-9][^ ]*-amd64\)$/\1/p' | head -1
+}
+abi=$(current_abi)
+if [ -z "$abi" ] && [ "$(id -u)" = 0 ]; then # a fresh machine has no package lists yet
+    apt-get update -qq >&2 || true
+    abi=$(current_abi)
+fi
+[ -n "$abi" ] || skip "apt-cache knows no linux-image-amd64 (as root: apt-get update)"
 dir=$cache/$abi
 headers=$dir/root/usr/src/linux-headers-$abi
 
