@@ -104,9 +104,11 @@ capture_check() { # name, then GAIN when a calibration is active
     vm_board_model check $LUT $frame "$@"
 }
 
-counters_zero() {
-    cat /sys/devices/platform/wdrvb/counters | sed 's/^/counter /'
-    bad=$(awk '$1 ~ /^(reads_without|converts_without|dac_out|bad_|steps_over)/ && $2 != 0' /sys/devices/platform/wdrvb/counters)
+counters_zero() { # the model's protocol errors, all zero; the last line sums them up
+    local c=/sys/devices/platform/wdrvb/counters bad
+    sed 's/^/counter /' $c
+    bad=$(awk '$1 ~ /^(reads_without|converts_without|dac_out|bad_|steps_over)/ && $2 != 0 { printf "%s=%s ", $1, $2 }' $c)
+    echo "model: $(awk '{ printf "%s=%s ", $1, $2 }' $c | sed 's/ $//'); protocol errors: ${bad:-none}"
     [ -z "$bad" ]
 }
 
