@@ -119,6 +119,7 @@ run() { # name, command...: one check (not in a subshell: it may restart the boa
     t0=$(cut -d' ' -f1 /proc/uptime)
     if "$@" >/tmp/check.log 2>&1; then verdict=PASS; else verdict=FAIL; fi
     sed 's/^/  | /' /tmp/check.log
+    cat /tmp/check.log >>/tmp/all-checks.log
     result "$name" $verdict "$(tail -1 /tmp/check.log) [$(awk -v a=$t0 '{printf "%.1f s", $1 - a}' /proc/uptime)]"
 }
 
@@ -129,6 +130,12 @@ check_bringup_message() { # every device but the table flash: the message must n
     out=$(timeout 10 wdr-board 2>&1)
     echo "$out"
     echo "$out" | grep -q /dev/mtd2 && echo "$out" | grep -qi 'no such file'
+}
+
+# In the asan build the programs carry ASan and UBSan: any report they printed fails this.
+check_sanitizers() {
+    if grep -E 'AddressSanitizer|LeakSanitizer|runtime error:' /tmp/board.log /tmp/all-checks.log; then return 1; fi
+    echo "no sanitizer report from wdr-board or the host programs"
 }
 
 check_info() { out=$(ctl info) && echo "$out" && echo "$out" | grep -q wdrcam-linux; }
@@ -238,6 +245,7 @@ else
     run probe_fullspeed probe_link full is_high_speed=0
     run model_counters_end counters_zero
 fi
+run sanitizer_reports check_sanitizers
 log "board log"
 sed 's/^/  board| /' /tmp/board.log
 echo "@@DONE"
