@@ -219,7 +219,7 @@ probe_link() { # speed, dummy_hcd parameters...
 
 # ---- The run --------------------------------------------------------------------------------
 
-log "kernel $(uname -r), $(nproc) CPU"
+log "kernel $(uname -r), $(nproc) CPU, init at $(cut -d' ' -f1 /proc/uptime) s"
 load_modules
 link_up
 gadget_create
