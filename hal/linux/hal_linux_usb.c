@@ -29,7 +29,7 @@ static struct {
     pthread_mutex_t lock;
     pthread_cond_t cond;
     int ep0, ep_in, ep_out;
-    int connected, suspended;
+    int connected;
     uint16_t in_packet, out_packet; /* max packet sizes at the speed of the current link */
     uint8_t ring[RX_RING];
     uint32_t r_head, r_tail; /* free-running; fill = head - tail */
@@ -121,7 +121,6 @@ static void set_connected(int on)
     uint16_t out = on ? packet_size(U.ep_out, HS_PACKET) : HS_PACKET;
     pthread_mutex_lock(&U.lock);
     U.connected = on;
-    U.suspended = 0;
     U.in_packet = in;
     U.out_packet = out;
     if (!on) {
@@ -131,15 +130,6 @@ static void set_connected(int on)
     pthread_cond_broadcast(&U.cond);
     pthread_mutex_unlock(&U.lock);
     lx_post(HAL_EV_USB_RESET, 0);
-}
-
-/* A bus suspend keeps the configuration: the host resumes where it left off. */
-static void set_suspended(int on)
-{
-    pthread_mutex_lock(&U.lock);
-    U.suspended = on;
-    pthread_cond_broadcast(&U.cond);
-    pthread_mutex_unlock(&U.lock);
 }
 
 /* A control request to our interface: we define none, so stall it. FunctionFS stalls when ep0
@@ -156,8 +146,9 @@ static void on_ep0_event(const struct usb_functionfs_event *ev)
     case FUNCTIONFS_ENABLE: set_connected(1); break;
     case FUNCTIONFS_DISABLE:
     case FUNCTIONFS_UNBIND: set_connected(0); break;
-    case FUNCTIONFS_SUSPEND: set_suspended(1); break;
-    case FUNCTIONFS_RESUME: set_suspended(0); break;
+    case FUNCTIONFS_SUSPEND: /* the host suspended the bus (autosuspend): the configuration and */
+    case FUNCTIONFS_RESUME:  /* our session stay; transfers wait in the controller until resume */
+        break;
     case FUNCTIONFS_SETUP: stall_setup(&ev->u.setup); break;
     default: break; /* BIND */
     }

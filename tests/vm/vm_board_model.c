@@ -27,7 +27,10 @@
 
 /* The per-pixel offset of the test calibration: varies along rows and columns, so that a table
  * row applied to the wrong sensor row, or shifted by a column, shows. */
-static int pixel_offset(unsigned row, unsigned col) { return (int)((row * 7u + col * 3u) % 64u) - 32; }
+static int pixel_offset(unsigned row, unsigned col)
+{
+    return (int)((row * 7u + col * 3u) % 64u) - 32;
+}
 
 /* A POLY table of 2 coefficients (the smallest a table can be: 2.8 MB for VGA): pixel (r, c)
  * maps y to gain * y + pixel_offset(r, c). */
@@ -120,7 +123,8 @@ static int check(const char *lut_path, const char *frame_path, int have_cal, dou
     long wrong = 0;
     for (int r = 0; r < h; r++)
         for (int c = 0; c < w; c++) {
-            double want = corrected(steps[vb_pixel_step((unsigned)r, (unsigned)c, n)], (unsigned)r, (unsigned)c, have_cal, gain);
+            double want =
+                corrected(steps[vb_pixel_step((unsigned)r, (unsigned)c, n)], (unsigned)r, (unsigned)c, have_cal, gain);
             double got = px[(size_t)r * (size_t)w + (size_t)c];
             if (got != want && wrong++ < 5)
                 printf("pixel (%d, %d): %g, the model says %g\n", r, c, got, want);

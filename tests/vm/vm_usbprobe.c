@@ -68,8 +68,9 @@ int main(int argc, char **argv)
     libusb_device_handle *h = open_board(ctx);
     int rc = EX_UNAVAILABLE;
     if (h) {
-        rc = !strcmp(argv[1], "control") ? probe_control(h) : !strcmp(argv[1], "reset") ? probe_reset(h)
-                                                                                        : probe_speed(h);
+        rc = !strcmp(argv[1], "control") ? probe_control(h)
+             : !strcmp(argv[1], "reset") ? probe_reset(h)
+                                         : probe_speed(h);
         libusb_close(h);
     }
     libusb_exit(ctx);
