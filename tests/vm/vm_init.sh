@@ -104,6 +104,9 @@ capture_check() { # name, then GAIN when a calibration is active
     vm_board_model check $LUT $frame "$@"
 }
 
+model_count() { awk -v k=$1 '$1 == k { print $2 }' /sys/devices/platform/wdrvb/counters; }
+frames_started_since() { [ $(model_count resets) -ge $(($1 + 2)) ]; }
+
 counters_zero() { # the model's protocol errors, all zero; the last line sums them up
     local c=/sys/devices/platform/wdrvb/counters bad
     sed 's/^/counter /' $c
@@ -162,8 +165,9 @@ probe_autosuspend() {
     d=$(host_device) || return 1
     echo 300 >$d/power/autosuspend_delay_ms
     echo auto >$d/power/control
-    sleep 2
-    echo "runtime status after 2 s idle: $(cat $d/power/runtime_status)"
+    wait_for 15 grep -q '^suspended' $d/power/runtime_status
+    echo "runtime status after 300 ms idle: $(cat $d/power/runtime_status)"
+    grep -q '^suspended' $d/power/runtime_status || { echo on >$d/power/control; echo "the host never suspended the board"; return 1; }
     ctl info >/dev/null; rc=$?
     echo on >$d/power/control
     [ $rc = 0 ] && echo "info after autosuspend: ok" || echo "info after autosuspend: exit $rc"
@@ -191,12 +195,15 @@ probe_bus_reset() {
 
 probe_killed_host() {
     board_restart || return 1
+    local resets0 pid
+    resets0=$(model_count resets)
     wdrctl stream >/tmp/stream.log 2>&1 &
     pid=$!
-    sleep 3
+    wait_for 30 frames_started_since $resets0 # the second frame began: the stream runs
     kill -9 $pid
     wait $pid 2>/dev/null
-    echo "streaming host killed after 3 s"
+    echo "streaming host killed after $(($(model_count resets) - resets0)) frame starts"
+    [ $(model_count resets) -ge $((resets0 + 2)) ] || { echo "the stream never ran"; return 1; }
     capture_check killed $CAL_GAIN
     rc=$?
     [ $rc = 0 ] || echo "capture after a killed host: exit $rc"
