@@ -29,6 +29,7 @@ load_modules() {
     for ko in $(cat /lib/modules/order); do
         case $ko in
         dummy_hcd.ko) continue ;; # per link speed, see link_up
+        wdrvb.ko) continue ;;     # after the first bring-up check
         mtdram.ko) insmod /lib/modules/$ko total_size="$MTD_KIB" erase_size="$MTD_ERASE_KIB" ;;
         *) insmod /lib/modules/$ko ;;
         esac || echo "insmod $ko failed"
@@ -65,10 +66,15 @@ host_node_ready() { # libusb opens /dev/bus/usb/BUS/DEV
     d=$(host_device) && test -c "$(printf /dev/bus/usb/%03d/%03d $(cat $d/busnum) $(cat $d/devnum))"
 }
 
-wait_for() { # seconds, command...: poll until the command succeeds
-    n=$(($1 * 10)); shift
-    while [ $n -gt 0 ]; do "$@" >/dev/null 2>&1 && return 0; sleep 0.1; n=$((n - 1)); done
-    return 1
+uptime_s() { cut -d. -f1 /proc/uptime; }
+
+wait_for() { # seconds, command...: poll until the command succeeds, by the clock (a loaded VM is slow)
+    local until=$(($(uptime_s) + $1))
+    shift
+    while ! "$@" >/dev/null 2>&1; do
+        [ $(uptime_s) -lt $until ] || return 1
+        sleep 0.1
+    done
 }
 
 # Start wdr-board, bind the gadget (the kernel unbinds the UDC when the program exits), wait
@@ -128,11 +134,11 @@ run() { # name, command...: one check (not in a subshell: it may restart the boa
 
 # ---- Checks ---------------------------------------------------------------------------------
 
-check_bringup_message() { # every device but the table flash: the message must name it
-    rm -f /dev/mtd2
+bringup_names() { # device: wdr-board must fail naming it and errno
+    local out
     out=$(timeout 10 wdr-board 2>&1)
     echo "$out"
-    echo "$out" | grep -q /dev/mtd2 && echo "$out" | grep -qi 'no such file'
+    echo "$out" | grep -q "$1" && echo "$out" | grep -qi 'no such file'
 }
 
 # In the asan build the programs carry ASan and UBSan: any report they printed fails this.
@@ -197,13 +203,13 @@ probe_killed_host() {
     board_restart || return 1
     local resets0 pid
     resets0=$(model_count resets)
-    wdrctl stream >/tmp/stream.log 2>&1 &
+    wdrctl stream --timeout 20000 >/tmp/stream.log 2>&1 &
     pid=$!
     wait_for 30 frames_started_since $resets0 # the second frame began: the stream runs
     kill -9 $pid
     wait $pid 2>/dev/null
     echo "streaming host killed after $(($(model_count resets) - resets0)) frame starts"
-    [ $(model_count resets) -ge $((resets0 + 2)) ] || { echo "the stream never ran"; return 1; }
+    [ $(model_count resets) -ge $((resets0 + 2)) ] || { cat /tmp/stream.log; echo "the stream never ran"; return 1; }
     capture_check killed $CAL_GAIN
     rc=$?
     [ $rc = 0 ] || echo "capture after a killed host: exit $rc"
@@ -230,7 +236,9 @@ log "kernel $(uname -r), $(nproc) CPU, init at $(cut -d' ' -f1 /proc/uptime) s"
 load_modules
 link_up
 gadget_create
-run bringup_message check_bringup_message
+run bringup_message_spi bringup_names /dev/spidev0.0 # no virtual board yet
+insmod /lib/modules/wdrvb.ko
+run bringup_message bringup_names /dev/mtd2 # every device but the table flash
 ln -sf mtd0 /dev/mtd2 # hal_linux_config.h wants the table partition at mtd2; mtdram is mtd0
 if ! board_start; then
     result board_start FAIL "wdr-board did not come up"
