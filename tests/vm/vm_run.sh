@@ -52,7 +52,7 @@ printf 'CAL_GAIN=%s\nMTD_KIB=32768\nMTD_ERASE_KIB=64\n' $cal_gain >"$root/data/p
 t_ready=$(date +%s.%N)
 
 # TCG on purpose: CI machines have no KVM. The guard timeout only stops a hung VM.
-timeout 600 qemu-system-x86_64 -accel tcg -cpu max -smp 2 -m 768 -nographic -no-reboot \
+timeout 720 qemu-system-x86_64 -accel tcg -cpu max -smp 2 -m 768 -nographic -no-reboot \
     -kernel "$kdir/vmlinuz" -initrd "$out/initramfs.cpio" \
     -append "console=ttyS0 panic=-1 quiet loglevel=4 rdinit=/init" \
     </dev/null >"$out/console.log" 2>&1 || true
