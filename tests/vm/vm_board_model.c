@@ -40,8 +40,12 @@ static int write_cal(const char *path, float gain)
     size_t size = wdr_cal_size(W, H, 2);
     float *coeffs = malloc(2u * N * sizeof *coeffs);
     uint8_t *flags = calloc(N, 1), *out = aligned_alloc(4, (size + 3u) & ~(size_t)3u);
-    if (!coeffs || !flags || !out)
+    if (!coeffs || !flags || !out) {
+        free(coeffs);
+        free(flags);
+        free(out);
         return EX_OSERR;
+    }
     wdr_cal_header h;
     memset(&h, 0, sizeof h);
     h.sensor_id = HAL_LINUX_SENSOR_ID;
