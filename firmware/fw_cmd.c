@@ -69,6 +69,13 @@ static void cmd_info(wdr_fw *fw, const wdr_packet *pkt)
     memcpy(in.name, fw->board.name, sizeof in.name);
     wdr_info_pack(&in, out);
     int same = wdr_get_u16(pkt->payload) == WDR_PROTO_VERSION_MAJOR;
+    /* A new host session (1.1): the last host left without stopping what it started (a killed
+     * process leaves no trace on the bus), so stop it now. */
+    if (same && pkt->h.length >= WDR_INFO_REQUEST_SIZE &&
+        (wdr_get_u32(pkt->payload + 4) & WDR_INFO_FLAG_NEW_SESSION)) {
+        wdr_fw_frame_stop(fw);
+        wdr_store_abort(&fw->store);
+    }
     wdr_fw_reply(fw, &pkt->h, same ? WDR_ST_OK : WDR_ST_BAD_VERSION, out, sizeof out);
 }
 

@@ -12,7 +12,7 @@
 #include <stdint.h>
 
 #define WDR_PROTO_VERSION_MAJOR 1
-#define WDR_PROTO_VERSION_MINOR 1 /* 1.1: SET_EXPOSURE, exposure fields in STATUS */
+#define WDR_PROTO_VERSION_MINOR 2 /* 1.1: SET_EXPOSURE, exposure fields in STATUS; 1.2: INFO flags, new session */
 
 #define WDR_PROTO_SYNC0 0x57u /* 'W' */
 #define WDR_PROTO_SYNC1 0x44u /* 'D' */
@@ -137,6 +137,9 @@ int wdr_status_from_err(int err);
 #define WDR_SLOT_NEWEST 0xffu    /* LUT_SELECT: the newest valid slot */
 #define WDR_SLOT_NONE 0xffu      /* STATUS: no valid table of that kind */
 #define WDR_INFO_CAP_ILLUMINANT 0x1u
+/* INFO request: u16 major, u16 minor, then (1.2) u32 flags */
+#define WDR_INFO_REQUEST_SIZE 8u
+#define WDR_INFO_FLAG_NEW_SESSION 0x1u /* stop any capture or stream, drop an upload in progress */
 
 typedef struct wdr_info {
     uint16_t proto_major, proto_minor;

@@ -1,5 +1,5 @@
 /* Real board on embedded Linux, core: identity, events, time, the sensor control lines
- * (libgpiod, API v1 or v2), ramp playback to the DAC and the column ADC (spidev).
+ * (libgpiod 1.x, Debian 12's 1.6), ramp playback to the DAC and the column ADC (spidev).
  *
  * Threads stand in for interrupts: they only post events (an eventfd wakes the task loop).
  * Ramp playback from user space has tens of microseconds of jitter: good for bring-up; a
@@ -10,6 +10,7 @@
 #include <gpiod.h>
 #include <linux/spi/spidev.h>
 #include <poll.h>
+#include <stdio.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <string.h>
@@ -39,50 +40,16 @@ static struct {
     const wdr_lut_view *lut;
 } L = {.lock = PTHREAD_MUTEX_INITIALIZER, .wake_fd = -1, .timer_fd = -1, .dac_fd = -1, .adc_fd = -1};
 
-/* ---- GPIO (libgpiod v1 or v2) ------------------------------------------------------------ */
+/* ---- GPIO (libgpiod 1.x: the build stops on 2.x, see CMakeLists.txt) ----------------------- */
+
+static struct gpiod_chip *gpio_chip;
+static struct gpiod_line_bulk gpio_bulk;
 
 static unsigned line_offsets(unsigned i)
 {
     static const unsigned fixed[3] = {HAL_LINUX_LINE_RESET, HAL_LINUX_LINE_ROW_SELECT, HAL_LINUX_LINE_ADC_CONVERT};
     return i < 3 ? fixed[i] : HAL_LINUX_LINE_ROW_ADDR0 + (i - 3);
 }
-
-#if WDR_GPIOD_API == 2
-static struct gpiod_line_request *gpio_req;
-
-static int gpio_open(void)
-{
-    unsigned offsets[N_LINES];
-    for (unsigned i = 0; i < N_LINES; i++)
-        offsets[i] = line_offsets(i);
-    struct gpiod_chip *chip = gpiod_chip_open(HAL_LINUX_GPIOCHIP);
-    struct gpiod_line_settings *s = gpiod_line_settings_new();
-    struct gpiod_line_config *lc = gpiod_line_config_new();
-    struct gpiod_request_config *rc = gpiod_request_config_new();
-    if (chip && s && lc && rc) {
-        gpiod_line_settings_set_direction(s, GPIOD_LINE_DIRECTION_OUTPUT);
-        gpiod_request_config_set_consumer(rc, "wdrcam");
-        if (gpiod_line_config_add_line_settings(lc, offsets, N_LINES, s) == 0)
-            gpio_req = gpiod_chip_request_lines(chip, rc, lc);
-    }
-    gpiod_request_config_free(rc);
-    gpiod_line_config_free(lc);
-    gpiod_line_settings_free(s);
-    if (chip)
-        gpiod_chip_close(chip);
-    return gpio_req ? WDR_OK : WDR_E_IO;
-}
-
-static int gpio_write(void)
-{
-    enum gpiod_line_value v[N_LINES];
-    for (unsigned i = 0; i < N_LINES; i++)
-        v[i] = L.values[i] ? GPIOD_LINE_VALUE_ACTIVE : GPIOD_LINE_VALUE_INACTIVE;
-    return gpiod_line_request_set_values(gpio_req, v) == 0 ? WDR_OK : WDR_E_IO;
-}
-#else
-static struct gpiod_chip *gpio_chip;
-static struct gpiod_line_bulk gpio_bulk;
 
 static int gpio_open(void)
 {
@@ -91,13 +58,30 @@ static int gpio_open(void)
     for (unsigned i = 0; i < N_LINES; i++)
         offsets[i] = line_offsets(i);
     gpio_chip = gpiod_chip_open(HAL_LINUX_GPIOCHIP);
-    if (!gpio_chip || gpiod_chip_get_lines(gpio_chip, offsets, N_LINES, &gpio_bulk) != 0)
-        return WDR_E_IO;
-    return gpiod_line_request_bulk_output(&gpio_bulk, "wdrcam", zeros) == 0 ? WDR_OK : WDR_E_IO;
+    if (!gpio_chip)
+        return lx_fail("gpiod_chip_open", HAL_LINUX_GPIOCHIP);
+    if (gpiod_chip_get_lines(gpio_chip, offsets, N_LINES, &gpio_bulk) != 0)
+        return lx_fail("gpiod_chip_get_lines (reset, row select, convert, row address)", HAL_LINUX_GPIOCHIP);
+    if (gpiod_line_request_bulk_output(&gpio_bulk, "wdrcam", zeros) != 0)
+        return lx_fail("gpiod_line_request_bulk_output", HAL_LINUX_GPIOCHIP);
+    return WDR_OK;
 }
 
 static int gpio_write(void) { return gpiod_line_set_value_bulk(&gpio_bulk, L.values) == 0 ? WDR_OK : WDR_E_IO; }
-#endif
+
+/* ---- Bring-up errors ----------------------------------------------------------------------- */
+
+static char bringup_error[320];
+
+int lx_fail(const char *call, const char *what)
+{
+    int err = errno;
+    snprintf(bringup_error, sizeof bringup_error, "%s %s: %s", call, what, err ? strerror(err) : "failed");
+    errno = err;
+    return WDR_E_IO;
+}
+
+const char *lx_bringup_error(void) { return bringup_error; }
 
 /* ---- Events and time ---------------------------------------------------------------------- */
 
@@ -178,13 +162,22 @@ void hal_timer_arm(uint64_t deadline_ns)
 
 /* ---- Init and identity --------------------------------------------------------------------- */
 
+/* A spidev node set to mode 0, 8-bit words and the board's clock; -1 with the error recorded. */
 static int spi_open(const char *path)
 {
     int fd = open(path, O_RDWR | O_CLOEXEC);
+    if (fd < 0) {
+        lx_fail("open", path);
+        return -1;
+    }
     uint32_t hz = HAL_LINUX_SPI_HZ;
     uint8_t bits = 8, mode = SPI_MODE_0;
-    if (fd >= 0 && (ioctl(fd, SPI_IOC_WR_MODE, &mode) < 0 || ioctl(fd, SPI_IOC_WR_BITS_PER_WORD, &bits) < 0 ||
-                    ioctl(fd, SPI_IOC_WR_MAX_SPEED_HZ, &hz) < 0)) {
+    const char *call = ioctl(fd, SPI_IOC_WR_MODE, &mode) < 0                ? "ioctl SPI_IOC_WR_MODE"
+                       : ioctl(fd, SPI_IOC_WR_BITS_PER_WORD, &bits) < 0   ? "ioctl SPI_IOC_WR_BITS_PER_WORD"
+                       : ioctl(fd, SPI_IOC_WR_MAX_SPEED_HZ, &hz) < 0      ? "ioctl SPI_IOC_WR_MAX_SPEED_HZ"
+                                                                         : NULL;
+    if (call) {
+        lx_fail(call, path);
         close(fd);
         return -1;
     }
@@ -196,12 +189,22 @@ int hal_init(void)
     L.t0_ns = mono_ns();
     L.row_selected = -1;
     L.wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+    if (L.wake_fd < 0)
+        return lx_fail("eventfd", "(event queue)");
     L.timer_fd = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
+    if (L.timer_fd < 0)
+        return lx_fail("timerfd_create", "CLOCK_MONOTONIC");
     L.dac_fd = spi_open(HAL_LINUX_SPI_DAC);
-    L.adc_fd = spi_open(HAL_LINUX_SPI_ADC);
-    if (L.wake_fd < 0 || L.timer_fd < 0 || L.dac_fd < 0 || L.adc_fd < 0 || gpio_open() != WDR_OK)
+    if (L.dac_fd < 0)
         return WDR_E_IO;
-    if (gpio_write() != WDR_OK || lx_flash_init() != WDR_OK || lx_usb_init() != WDR_OK)
+    L.adc_fd = spi_open(HAL_LINUX_SPI_ADC);
+    if (L.adc_fd < 0)
+        return WDR_E_IO;
+    if (gpio_open() != WDR_OK)
+        return WDR_E_IO;
+    if (gpio_write() != WDR_OK)
+        return lx_fail("gpiod_line_set_value_bulk", HAL_LINUX_GPIOCHIP);
+    if (lx_flash_init() != WDR_OK || lx_usb_init() != WDR_OK)
         return WDR_E_IO;
     return WDR_OK;
 }

@@ -2,6 +2,7 @@
  * (MEMGETINFO, MEMERASE, pread/pwrite). The HAL contract is stricter than NOR hardware,
  * which would silently AND new bits into old ones: programming checks that the range is erased. */
 #include "hal_linux_internal.h"
+#include <errno.h>
 #include <fcntl.h>
 #include <mtd/mtd-user.h>
 #include <string.h>
@@ -19,12 +20,21 @@ int lx_flash_init(void)
 {
     struct mtd_info_user info;
     M.fd = open(HAL_LINUX_MTD, O_RDWR | O_CLOEXEC);
-    if (M.fd < 0 || ioctl(M.fd, MEMGETINFO, &info) < 0 || info.erasesize == 0)
-        return WDR_E_IO;
+    if (M.fd < 0)
+        return lx_fail("open", HAL_LINUX_MTD);
+    if (ioctl(M.fd, MEMGETINFO, &info) < 0)
+        return lx_fail("ioctl MEMGETINFO", HAL_LINUX_MTD);
+    errno = EINVAL;
+    if (info.erasesize == 0)
+        return lx_fail("ioctl MEMGETINFO (erase size 0)", HAL_LINUX_MTD);
     M.g.block_size = info.erasesize;
     M.g.block_count = info.size / info.erasesize;
     M.g.prog_size = info.writesize < MIN_PROG_SIZE ? MIN_PROG_SIZE : info.writesize;
-    return M.g.prog_size <= 256 ? WDR_OK : WDR_E_UNSUPPORTED;
+    if (M.g.prog_size > 256) {
+        lx_fail("ioctl MEMGETINFO (write size above 256 bytes: NAND is not supported)", HAL_LINUX_MTD);
+        return WDR_E_UNSUPPORTED;
+    }
+    return WDR_OK;
 }
 
 int hal_flash_geometry_get(hal_flash_geometry *g)

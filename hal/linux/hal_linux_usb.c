@@ -1,30 +1,44 @@
 /* Real board on embedded Linux, USB: one vendor interface with a bulk IN and a bulk OUT
  * endpoint, served through FunctionFS (the gadget is assembled in configfs, see README.md).
  * Three threads stand in for the USB interrupts: ep0 events, OUT reads and IN writes; they
- * only move bytes and post events, the firmware's task loop does the rest. */
+ * only move bytes and post events, the firmware's task loop does the rest.
+ *
+ * Bulk IN is double-buffered: hal_usb_write copies the firmware's frame into the filling
+ * buffer and hands the buffer back at once, while the IN thread sends the other one. Frames
+ * queued meanwhile leave as one transfer, which a USB host takes in far fewer transactions
+ * than one per frame (one row of a VGA frame is 1.3 KB). */
 #include "hal_linux_internal.h"
+#include <errno.h>
 #include <fcntl.h>
+#include <linux/aio_abi.h>
 #include <linux/usb/functionfs.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/ioctl.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #define RX_RING 65536u    /* power of two */
 #define MAX_TRANSFER 65536u
-#define HS_PACKET 512u
 #define FS_PACKET 64u
+#define HS_PACKET 512u
+#define SS_PACKET 1024u
 
 static struct {
     pthread_mutex_t lock;
     pthread_cond_t cond;
     int ep0, ep_in, ep_out;
     int connected;
+    uint16_t in_packet, out_packet; /* max packet sizes at the speed of the current link */
     uint8_t ring[RX_RING];
     uint32_t r_head, r_tail; /* free-running; fill = head - tail */
-    const uint8_t *tx;
-    size_t tx_len;
-} U = {.lock = PTHREAD_MUTEX_INITIALIZER, .cond = PTHREAD_COND_INITIALIZER, .ep0 = -1, .ep_in = -1, .ep_out = -1};
+    uint8_t tx[2][MAX_TRANSFER];
+    size_t tx_fill; /* bytes waiting in tx[tx_filling] */
+    int tx_filling;
+    int tx_refused; /* hal_usb_write said BUSY: tell the firmware when there is room */
+} U = {.lock = PTHREAD_MUTEX_INITIALIZER, .cond = PTHREAD_COND_INITIALIZER, .ep0 = -1, .ep_in = -1, .ep_out = -1,
+       .in_packet = HS_PACKET, .out_packet = HS_PACKET};
 
 /* ---- Descriptors -------------------------------------------------------------------------- */
 
@@ -39,16 +53,29 @@ struct ep_pair {
     struct usb_endpoint_descriptor_no_audio in, out;
 } __attribute__((packed));
 
+/* SuperSpeed endpoints each need a companion descriptor (no bursts, no streams). */
+struct ss_ep {
+    struct usb_endpoint_descriptor_no_audio ep;
+    struct usb_ss_ep_comp_descriptor comp;
+} __attribute__((packed));
+
+struct ss_set {
+    struct usb_interface_descriptor intf;
+    struct ss_ep in, out;
+} __attribute__((packed));
+
 static const struct {
     struct usb_functionfs_descs_head_v2 head;
-    __le32 fs_count, hs_count;
+    __le32 fs_count, hs_count, ss_count;
     struct ep_pair fs, hs;
+    struct ss_set ss;
 } __attribute__((packed)) descriptors = {
     .head = {.magic = LE(FUNCTIONFS_DESCRIPTORS_MAGIC_V2),
              .length = LE(sizeof descriptors),
-             .flags = LE(FUNCTIONFS_HAS_FS_DESC | FUNCTIONFS_HAS_HS_DESC)},
+             .flags = LE(FUNCTIONFS_HAS_FS_DESC | FUNCTIONFS_HAS_HS_DESC | FUNCTIONFS_HAS_SS_DESC)},
     .fs_count = LE(3),
     .hs_count = LE(3),
+    .ss_count = LE(5),
 #define WDR_INTF                                                                                                     \
     {.bLength = sizeof(struct usb_interface_descriptor), .bDescriptorType = USB_DT_INTERFACE, .bNumEndpoints = 2,   \
      .bInterfaceClass = 0xff, .bInterfaceSubClass = 0x57, .bInterfaceProtocol = 0x01, .iInterface = 1}
@@ -57,6 +84,8 @@ static const struct {
      .bmAttributes = USB_ENDPOINT_XFER_BULK, .wMaxPacketSize = LE(size)}
     .fs = {WDR_INTF, WDR_EP(1 | USB_DIR_IN, FS_PACKET), WDR_EP(2 | USB_DIR_OUT, FS_PACKET)},
     .hs = {WDR_INTF, WDR_EP(1 | USB_DIR_IN, HS_PACKET), WDR_EP(2 | USB_DIR_OUT, HS_PACKET)},
+#define WDR_SS_COMP {.bLength = USB_DT_SS_EP_COMP_SIZE, .bDescriptorType = USB_DT_SS_ENDPOINT_COMP}
+    .ss = {WDR_INTF, {WDR_EP(1 | USB_DIR_IN, SS_PACKET), WDR_SS_COMP}, {WDR_EP(2 | USB_DIR_OUT, SS_PACKET), WDR_SS_COMP}},
 };
 
 #define STR_INTERFACE "wdrcam"
@@ -74,28 +103,73 @@ static const struct {
 
 /* ---- Threads ---------------------------------------------------------------------------------- */
 
+/* FunctionFS errors that say "try again" rather than "the link is gone". */
+static int transient(int err) { return err == EINTR || err == EAGAIN; }
+
+/* The endpoint's wMaxPacketSize at the speed the host enumerated us; fallback if unknown. */
+static uint16_t packet_size(int fd, uint16_t fallback)
+{
+    struct usb_endpoint_descriptor d;
+    if (ioctl(fd, FUNCTIONFS_ENDPOINT_DESC, &d) < 0 || d.wMaxPacketSize == 0)
+        return fallback;
+    return (uint16_t)(d.wMaxPacketSize & 0x7ffu);
+}
+
 static void set_connected(int on)
 {
+    uint16_t in = on ? packet_size(U.ep_in, HS_PACKET) : HS_PACKET;
+    uint16_t out = on ? packet_size(U.ep_out, HS_PACKET) : HS_PACKET;
     pthread_mutex_lock(&U.lock);
     U.connected = on;
-    if (!on)
+    U.in_packet = in;
+    U.out_packet = out;
+    if (!on) {
         U.r_head = U.r_tail = 0; /* a new host starts a new byte stream */
+        U.tx_fill = 0;
+    }
     pthread_cond_broadcast(&U.cond);
     pthread_mutex_unlock(&U.lock);
     lx_post(HAL_EV_USB_RESET, 0);
 }
 
+/* A control request to our interface: we define none, so stall it. FunctionFS stalls when ep0
+ * is used against the request's direction: read for an IN request, write for an OUT one. */
+static void stall_setup(const struct usb_ctrlrequest *req)
+{
+    ssize_t r = (req->bRequestType & USB_DIR_IN) ? read(U.ep0, NULL, 0) : write(U.ep0, NULL, 0);
+    (void)r; /* -1 with EL2HLT is the stall done */
+}
+
+static void on_ep0_event(const struct usb_functionfs_event *ev)
+{
+    switch (ev->type) {
+    case FUNCTIONFS_ENABLE: set_connected(1); break;
+    case FUNCTIONFS_DISABLE:
+    case FUNCTIONFS_UNBIND: set_connected(0); break;
+    case FUNCTIONFS_SUSPEND: /* the host suspended the bus (autosuspend): the configuration and */
+    case FUNCTIONFS_RESUME:  /* our session stay; transfers wait in the controller until resume */
+        break;
+    case FUNCTIONFS_SETUP: stall_setup(&ev->u.setup); break;
+    default: break; /* BIND */
+    }
+}
+
 static void *ep0_main(void *arg)
 {
     (void)arg;
-    struct usb_functionfs_event ev;
-    while (read(U.ep0, &ev, sizeof ev) == (ssize_t)sizeof ev) {
-        if (ev.type == FUNCTIONFS_ENABLE)
-            set_connected(1);
-        else if (ev.type == FUNCTIONFS_DISABLE || ev.type == FUNCTIONFS_UNBIND || ev.type == FUNCTIONFS_SUSPEND)
+    struct usb_functionfs_event ev[4];
+    for (;;) {
+        ssize_t n = read(U.ep0, ev, sizeof ev);
+        if (n < 0 && (transient(errno) || errno == EL2HLT))
+            continue;
+        if (n <= 0) { /* ep0 closed under us: nothing more will come */
+            fprintf(stderr, "wdr-board: read %s/ep0: %s\n", HAL_LINUX_FFS_DIR, n ? strerror(errno) : "end of file");
             set_connected(0);
+            return NULL;
+        }
+        for (ssize_t i = 0; i < n / (ssize_t)sizeof ev[0]; i++)
+            on_ep0_event(&ev[i]);
     }
-    return NULL;
 }
 
 /* Copy a received packet into the ring, waiting for room: the host is NAKed meanwhile. */
@@ -109,26 +183,98 @@ static void ring_put(const uint8_t *p, size_t n)
     pthread_mutex_unlock(&U.lock);
 }
 
+/* Until ep0 reports a host (the endpoints are disabled meanwhile). */
+static void wait_connected(void)
+{
+    pthread_mutex_lock(&U.lock);
+    while (!U.connected)
+        pthread_cond_wait(&U.cond, &U.lock);
+    pthread_mutex_unlock(&U.lock);
+}
+
+/* Bulk OUT reads one packet per request, so a read never waits for more than arrived (the
+ * host sends no zero-length packet after a transfer that fills its last packet). RX_DEPTH
+ * such requests stay queued through Linux AIO: the device controller fills them back to
+ * back, where one blocking read at a time would take one packet per USB frame. */
+#define RX_DEPTH 16u
+
+static uint8_t rx_buf[RX_DEPTH][SS_PACKET];
+static struct iocb rx_cb[RX_DEPTH];
+
+static int rx_submit(aio_context_t ctx, unsigned i, size_t want)
+{
+    struct iocb *cb = &rx_cb[i];
+    memset(cb, 0, sizeof *cb);
+    cb->aio_fildes = (uint32_t)U.ep_out;
+    cb->aio_lio_opcode = IOCB_CMD_PREAD;
+    cb->aio_buf = (uint64_t)(uintptr_t)rx_buf[i];
+    cb->aio_nbytes = want;
+    cb->aio_data = i;
+    while (syscall(SYS_io_submit, ctx, 1L, &cb) != 1)
+        if (!transient(errno))
+            return -1;
+    return 0;
+}
+
+static size_t out_packet_now(void)
+{
+    pthread_mutex_lock(&U.lock);
+    size_t want = U.out_packet <= SS_PACKET ? U.out_packet : SS_PACKET;
+    pthread_mutex_unlock(&U.lock);
+    return want;
+}
+
+/* Serve one connection: keep RX_DEPTH reads queued until they fail with the link. */
+static void rx_serve(aio_context_t ctx)
+{
+    size_t want = out_packet_now();
+    unsigned queued = 0;
+    for (unsigned i = 0; i < RX_DEPTH; i++)
+        queued += rx_submit(ctx, i, want) == 0;
+    while (queued > 0) {
+        struct io_event ev[RX_DEPTH];
+        long n = syscall(SYS_io_getevents, ctx, 1L, (long)RX_DEPTH, ev, NULL);
+        if (n < 0 && transient(errno))
+            continue;
+        if (n < 0)
+            return;
+        for (long k = 0; k < n; k++) { /* in completion order, which is the packets' order */
+            unsigned i = (unsigned)ev[k].data;
+            queued--;
+            if (ev[k].res > 0) {
+                ring_put(rx_buf[i], (size_t)ev[k].res);
+                lx_post(HAL_EV_USB_RX, 0);
+            }
+            if (ev[k].res >= 0 || -ev[k].res == EINTR || -ev[k].res == EAGAIN)
+                queued += rx_submit(ctx, i, want) == 0;
+            /* else ESHUTDOWN, ECONNRESET: the link went; ep0 reports it */
+        }
+    }
+}
+
 static void *rx_main(void *arg)
 {
     (void)arg;
-    uint8_t pkt[HS_PACKET]; /* one packet per read: a read never waits for more than arrived */
+    aio_context_t ctx = 0;
+    if (syscall(SYS_io_setup, RX_DEPTH, &ctx) < 0) {
+        fprintf(stderr, "wdr-board: io_setup: %s: bulk OUT stops\n", strerror(errno));
+        return NULL;
+    }
     for (;;) {
-        ssize_t n = read(U.ep_out, pkt, sizeof pkt);
-        if (n > 0) {
-            ring_put(pkt, (size_t)n);
-            lx_post(HAL_EV_USB_RX, 0);
-        } else {
-            usleep(10000); /* endpoint disabled (no host): ep0 reports when it is back */
-        }
+        wait_connected();
+        rx_serve(ctx);
+        usleep(1000); /* until ep0 has seen the link go */
     }
     return NULL;
 }
 
+/* 0 when all was sent; -1 when the link went (the bytes are lost with it). */
 static int write_all(const uint8_t *p, size_t len)
 {
     while (len > 0) {
         ssize_t n = write(U.ep_in, p, len);
+        if (n < 0 && transient(errno))
+            continue;
         if (n <= 0)
             return -1;
         p += n;
@@ -137,24 +283,37 @@ static int write_all(const uint8_t *p, size_t len)
     return 0;
 }
 
+/* Take the filled buffer for sending, handing the other one to hal_usb_write. */
+static size_t tx_take(const uint8_t **p, uint16_t *packet)
+{
+    pthread_mutex_lock(&U.lock);
+    while (!U.tx_fill)
+        pthread_cond_wait(&U.cond, &U.lock);
+    size_t len = U.tx_fill;
+    *p = U.tx[U.tx_filling];
+    *packet = U.in_packet;
+    U.tx_filling ^= 1;
+    U.tx_fill = 0;
+    int refused = U.tx_refused;
+    U.tx_refused = 0;
+    pthread_mutex_unlock(&U.lock);
+    if (refused)
+        lx_post(HAL_EV_USB_TX_DONE, 0); /* room again: the firmware retries its frame */
+    return len;
+}
+
 static void *tx_main(void *arg)
 {
     (void)arg;
     for (;;) {
-        pthread_mutex_lock(&U.lock);
-        while (!U.tx)
-            pthread_cond_wait(&U.cond, &U.lock);
-        const uint8_t *p = U.tx;
-        size_t len = U.tx_len;
-        pthread_mutex_unlock(&U.lock);
-        /* A transfer that fills its last packet needs a zero-length packet to end it. */
-        if (write_all(p, len) == 0 && len % FS_PACKET == 0 && write(U.ep_in, p, 0) < 0) {
+        const uint8_t *p;
+        uint16_t packet;
+        size_t len = tx_take(&p, &packet);
+        /* A transfer that fills its last packet needs a zero-length packet to end it; the
+         * packet is the endpoint's at this link's speed (64, 512 or 1024 bytes). */
+        if (write_all(p, len) == 0 && len % packet == 0 && write(U.ep_in, p, 0) < 0) {
             /* the host went away: ep0 reports the reset */
         }
-        pthread_mutex_lock(&U.lock);
-        U.tx = NULL;
-        pthread_mutex_unlock(&U.lock);
-        lx_post(HAL_EV_USB_TX_DONE, 0);
     }
     return NULL;
 }
@@ -165,14 +324,28 @@ static int open_ep(const char *name, int flags)
 {
     char path[256];
     snprintf(path, sizeof path, "%s/%s", HAL_LINUX_FFS_DIR, name);
-    return open(path, flags | O_CLOEXEC);
+    int fd = open(path, flags | O_CLOEXEC);
+    if (fd < 0)
+        lx_fail("open", path);
+    return fd;
+}
+
+static int write_ep0(const void *data, size_t len, const char *what)
+{
+    if (write(U.ep0, data, len) == (ssize_t)len)
+        return WDR_OK;
+    char path[300];
+    snprintf(path, sizeof path, "%s/ep0 (%s)", HAL_LINUX_FFS_DIR, what);
+    return lx_fail("write", path);
 }
 
 int lx_usb_init(void)
 {
     U.ep0 = open_ep("ep0", O_RDWR);
-    if (U.ep0 < 0 || write(U.ep0, &descriptors, sizeof descriptors) != (ssize_t)sizeof descriptors ||
-        write(U.ep0, &strings, sizeof strings) != (ssize_t)sizeof strings)
+    if (U.ep0 < 0)
+        return WDR_E_IO;
+    if (write_ep0(&descriptors, sizeof descriptors, "descriptors") != WDR_OK ||
+        write_ep0(&strings, sizeof strings, "strings") != WDR_OK)
         return WDR_E_IO;
     U.ep_in = open_ep("ep1", O_WRONLY);
     U.ep_out = open_ep("ep2", O_RDONLY);
@@ -180,9 +353,13 @@ int lx_usb_init(void)
         return WDR_E_IO;
     pthread_t t;
     void *(*mains[3])(void *) = {ep0_main, rx_main, tx_main};
-    for (int i = 0; i < 3; i++)
-        if (pthread_create(&t, NULL, mains[i], NULL) != 0 || pthread_detach(t) != 0)
-            return WDR_E_IO;
+    for (int i = 0; i < 3; i++) {
+        int err = pthread_create(&t, NULL, mains[i], NULL);
+        if (err || (err = pthread_detach(t)) != 0) {
+            errno = err;
+            return lx_fail("pthread_create", "USB thread");
+        }
+    }
     return WDR_OK;
 }
 
@@ -201,17 +378,22 @@ int hal_usb_read(uint8_t *buf, size_t cap)
     return n || connected ? (int)n : WDR_E_IO;
 }
 
+/* The frame is copied: buf is free again at once, which HAL_EV_USB_TX_DONE says. */
 int hal_usb_write(const uint8_t *buf, size_t len)
 {
     if (len > MAX_TRANSFER)
         return WDR_E_TOO_LARGE;
     pthread_mutex_lock(&U.lock);
-    int rc = !U.connected ? WDR_E_IO : U.tx ? WDR_E_BUSY : WDR_OK;
+    int rc = !U.connected ? WDR_E_IO : MAX_TRANSFER - U.tx_fill < len ? WDR_E_BUSY : WDR_OK;
     if (rc == WDR_OK) {
-        U.tx = buf;
-        U.tx_len = len;
+        memcpy(U.tx[U.tx_filling] + U.tx_fill, buf, len);
+        U.tx_fill += len;
         pthread_cond_broadcast(&U.cond);
+    } else if (rc == WDR_E_BUSY) {
+        U.tx_refused = 1;
     }
     pthread_mutex_unlock(&U.lock);
+    if (rc == WDR_OK)
+        lx_post(HAL_EV_USB_TX_DONE, 0);
     return rc;
 }

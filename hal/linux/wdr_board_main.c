@@ -1,9 +1,9 @@
 /* wdr-board: the controller firmware on an embedded-Linux board (hal/linux). The same loop as
- * a bare-metal main: the firmware's task, then sleep until an event. Built here, never run
- * here (no board): see hal/linux/README.md. Its pins and devices are build-time data
+ * a bare-metal main: the firmware's task, then sleep until an event. Runs in CI on a real
+ * kernel in a VM (tests/vm); see hal/linux/README.md. Its pins and devices are build-time data
  * (hal_linux_config.h), so its command line is --help and --version only. */
 #include "cli_options.h"
-#include "hal.h"
+#include "hal_linux_internal.h"
 #include "wdr_err.h"
 #include "wdr_fw.h"
 #include <stdio.h>
@@ -17,8 +17,8 @@ static const cli_command board_command = {
 static const cli_section sections[] = {
     {"FILES", "The GPIO chip, SPI devices, FunctionFS mount and MTD partition are fixed at build time "
               "(hal/linux/hal_linux_config.h); assemble the USB gadget in configfs first (hal/linux/README.md)."},
-    {"EXIT STATUS", "It runs until stopped; 1 when the board's bring-up fails (GPIO, SPI, FunctionFS or MTD "
-                    "missing), 64 on a bad command line."},
+    {"EXIT STATUS", "It runs until stopped; 1 when the board's bring-up fails (the message names the device, "
+                    "the call and errno), 64 on a bad command line."},
     {"SEE ALSO", "wdrctl(1), wdr-simboard(1)"},
     {NULL, NULL}};
 static const cli_program board_program = {
@@ -37,8 +37,7 @@ int main(int argc, char **argv)
         return rc;
     rc = hal_init();
     if (rc != WDR_OK) {
-        fprintf(stderr, "wdr-board: board bring-up failed: %s (GPIO, SPI, FunctionFS or MTD missing?)\n",
-                wdr_strerror(rc));
+        fprintf(stderr, "wdr-board: board bring-up failed: %s (%s)\n", lx_bringup_error(), wdr_strerror(rc));
         return 1;
     }
     rc = wdr_fw_init(&fw);

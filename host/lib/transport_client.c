@@ -178,9 +178,11 @@ int wdr_client_connect(wdr_client *c, wdr_transport *t)
      * must not take our first request for a retry of it. */
     c->seq = (uint16_t)(getpid() * 2654435761u ^ (uint32_t)wdr_transport_now_ms());
     wdr_proto_decoder_init(&c->dec);
-    uint8_t ver[4];
+    /* A new session: the board stops whatever an earlier host left running (SPEC.md, INFO). */
+    uint8_t ver[WDR_INFO_REQUEST_SIZE];
     wdr_put_u16(ver, WDR_PROTO_VERSION_MAJOR);
     wdr_put_u16(ver + 2, WDR_PROTO_VERSION_MINOR);
+    wdr_put_u32(ver + 4, WDR_INFO_FLAG_NEW_SESSION);
     int rc = wdr_client_request(c, WDR_CMD_INFO, ver, sizeof ver);
     if (rc != WDR_OK && !(rc == WDR_E_STATUS && c->status == WDR_ST_BAD_VERSION))
         return rc;

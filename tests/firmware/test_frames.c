@@ -137,6 +137,33 @@ static void basis_calibration_uploads_survives_reboot_and_corrects(void **state)
     assert_int_equal(th_cap.px[3][5], (uint16_t)(0.5f * fb_pattern(3, 5) + 10.0f + 0.5f));
 }
 
+/* Protocol 1.2: a host that opens a session with the new-session flag stops the stream and the
+ * upload an earlier host left behind; a 1.0 INFO (no flags) leaves them running. */
+static void new_session_stops_what_the_last_host_left(void **state)
+{
+    (void)state;
+    uint8_t on = 1, begin[8], ver[WDR_INFO_REQUEST_SIZE], out[WDR_INFO_SIZE];
+    assert_int_equal(th_upload(&fw, WDR_KIND_LUT, lut, (uint32_t)lut_len, 4096, NULL), WDR_ST_OK);
+    assert_int_equal(th_request(&fw, WDR_CMD_STREAM, &on, 1, NULL, 0), WDR_ST_OK);
+    wdr_put_u16(ver, WDR_PROTO_VERSION_MAJOR);
+    wdr_put_u16(ver + 2, WDR_PROTO_VERSION_MINOR);
+    wdr_put_u32(ver + 4, 0);
+    assert_int_equal(th_request(&fw, WDR_CMD_INFO, ver, 4, out, sizeof out), WDR_ST_OK);
+    assert_int_equal(th_request(&fw, WDR_CMD_INFO, ver, sizeof ver, out, sizeof out), WDR_ST_OK);
+    assert_int_not_equal(th_status(&fw).state, WDR_FW_IDLE);
+    wdr_put_u32(ver + 4, WDR_INFO_FLAG_NEW_SESSION);
+    assert_int_equal(th_request(&fw, WDR_CMD_INFO, ver, sizeof ver, out, sizeof out), WDR_ST_OK);
+    assert_int_equal(th_status(&fw).state, WDR_FW_IDLE);
+    wdr_put_u32(begin, (uint32_t)lut_len);
+    wdr_put_u32(begin + 4, wdr_crc32(0, lut, lut_len));
+    assert_int_equal(th_request(&fw, WDR_CMD_LUT_BEGIN, begin, sizeof begin, NULL, 0), WDR_ST_OK);
+    assert_int_not_equal(th_status(&fw).upload_kind, 0);
+    assert_int_equal(th_request(&fw, WDR_CMD_INFO, ver, sizeof ver, out, sizeof out), WDR_ST_OK);
+    assert_int_equal(th_status(&fw).upload_kind, 0);
+    assert_int_equal(th_capture_frames(&fw, 1), WDR_ST_OK); /* not BUSY */
+    assert_int_equal(th_cap.frame_ends, 1);
+}
+
 static void busy_while_streaming(void **state)
 {
     (void)state;
@@ -221,6 +248,7 @@ int main(void)
         cmocka_unit_test(calibration_corrects_every_pixel),
         cmocka_unit_test(basis_calibration_uploads_survives_reboot_and_corrects),
         cmocka_unit_test(busy_while_streaming),
+        cmocka_unit_test(new_session_stops_what_the_last_host_left),
         cmocka_unit_test(retry_is_answered_not_repeated),
         cmocka_unit_test(illuminant_reaches_the_hal),
         cmocka_unit_test(sensor_failure_ends_capture),
