@@ -834,6 +834,22 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
     }
 }
 
+/* cfg.code_noise, or when 0: one rounding of the ADC (1 code) and of the DAC (its step in ADC codes
+ * from the design, else one code) if the levels are whole codes, as quantised frames averaged
+ * without noise are; none for unquantised frames. */
+static double level_code_noise(const wdr_cal_levels *lv, const wdr_cal_config *cfg)
+{
+    if (cfg->code_noise > 0)
+        return cfg->code_noise;
+    long np = (long)lv->width * lv->height, probe = np * lv->n < 4096 ? np * lv->n : 4096;
+    for (long i = 0; i < probe; i++)
+        if (lv->frames[i] != floorf(lv->frames[i]))
+            return 0;
+    double step = cfg->design ? wdr_cal_design_dac_step_codes(cfg->design, sqrt(lv->amps[0] * lv->amps[lv->n - 1]))
+                              : 1.0;
+    return sqrt((1 + step * step) / 12);
+}
+
 static void count_flags(wdr_cal_result *res)
 {
     long np = (long)res->width * res->height;
@@ -872,6 +888,7 @@ int wdr_cal_fit_array(const wdr_cal_levels *lv, const wdr_cal_config *cfg, wdr_c
         return rc;
     fit_all_pixels(lv, res, med);
     count_flags(res);
+    res->code_noise = level_code_noise(lv, cfg);
     return WDR_OK;
 }
 

@@ -64,6 +64,9 @@ typedef struct wdr_cal_config {
                            (default 0.5, half an ADC code; about 1e-3 for unquantised data) */
     const struct wdr_cal_design *design; /* the designed response (may be NULL): curve models take
                            their end slopes from its shape instead of three-point estimates */
+    double code_noise;  /* rms uncertainty of a calibration level's code (codes): rounding of the ADC
+                           and DAC, temporal noise left after averaging. 0: auto, the converters'
+                           rounding when the levels are whole codes, else none */
 } wdr_cal_config;
 
 void wdr_cal_config_defaults(wdr_cal_config *c, int model);
@@ -82,6 +85,8 @@ typedef struct wdr_cal_result {
     long n_status[WDR_FIT_COUNT];
     long n_bad;
     int saturated_levels; /* levels where the array median sits at a rail */
+    double code_noise;    /* rms uncertainty of a level's code used by the tables' fits (cfg.code_noise
+                             or its auto value) */
 } wdr_cal_result;
 
 /* Detect dead, stuck, hot and saturated pixels into flags (width*height, zeroed first). */
