@@ -29,6 +29,8 @@ void wdr_cal_config_defaults(wdr_cal_config *c, int model)
     c->hot_frac = 0.25;
     c->max_residual = 0.05;
     c->tie_codes = 0.5;
+    c->tie_sigmas = 5;
+    c->spacing_sigmas = 3;
 }
 
 static int levels_needed(const wdr_cal_config *cfg)
@@ -114,7 +116,7 @@ static int alloc_result(wdr_cal_result *res, long np)
 }
 
 /* Median response per level over the pixels not flagged so far. */
-static int level_medians(const wdr_cal_levels *lv, const uint8_t *flags, double *med)
+int wdr_cal_level_medians(const wdr_cal_levels *lv, const uint8_t *flags, double *med)
 {
     long np = (long)lv->width * lv->height;
     float *good = malloc(sizeof(float) * 2 * (size_t)np);
@@ -123,7 +125,7 @@ static int level_medians(const wdr_cal_levels *lv, const uint8_t *flags, double 
     for (int k = 0; k < lv->n; k++) {
         long m = 0;
         for (long i = 0; i < np; i++)
-            if (!flags[i])
+            if (!flags || !flags[i])
                 good[m++] = lv->frames[(long)k * np + i];
         med[k] = m ? wdr_cal_median_of(good, m, good + np) : 0;
     }
@@ -135,6 +137,8 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
 {
     long np = (long)lv->width * lv->height;
     double u[WDR_CAL_MAX_LEVELS], y[WDR_CAL_MAX_LEVELS], w[WDR_CAL_MAX_LEVELS];
+    double tol[WDR_CAL_MAX_LEVELS], w_noise[WDR_CAL_MAX_LEVELS];
+    wdr_cal_level_tolerances(lv, &res->cfg, tol, w_noise);
     for (int k = 0; k < lv->n; k++) {
         u[k] = lv->amps[k] / res->x_scale;
         w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, lv->amps[k]), 1e-9);
@@ -151,7 +155,7 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
         else if (res->model == WDR_MODEL_POLYMAP)
             st = wdr_cal_fit_polymap_pixel(res, y, med, w, lv->n, par);
         else if (res->model == WDR_MODEL_SPLINE)
-            st = wdr_cal_fit_spline_pixel(y, med, lv->n, res->cfg.tie_codes, par);
+            st = wdr_cal_fit_spline_pixel(y, med, lv->n, tol, w_noise, par);
         else
             st = wdr_cal_fit_paper_pixel(res, u, y, par);
         if (st) {
@@ -161,20 +165,24 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
     }
 }
 
-/* cfg.code_noise, or when 0: one rounding of the ADC (1 code) and of the DAC (its step in ADC codes
- * from the design, else one code) if the levels are whole codes, as quantised frames averaged
- * without noise are; none for unquantised frames. */
+/* cfg.code_noise, or when 0: the temporal noise left in the levels' means (measured with the
+ * levels, RMS over them), and one rounding of the ADC (1 code) and of the DAC (its step in ADC
+ * codes from the design, else one code) if the levels are whole codes, as quantised frames
+ * averaged without noise are (noise dithers the rounding away otherwise). */
 static double level_code_noise(const wdr_cal_levels *lv, const wdr_cal_config *cfg)
 {
     if (cfg->code_noise > 0)
         return cfg->code_noise;
+    double var = 0;
+    for (int k = 0; k < lv->n; k++)
+        var += wdr_cal_level_sd(lv, k) * wdr_cal_level_sd(lv, k) / lv->n;
     long np = (long)lv->width * lv->height, probe = np * lv->n < 4096 ? np * lv->n : 4096;
     for (long i = 0; i < probe; i++)
         if (lv->frames[i] != floorf(lv->frames[i]))
-            return 0;
+            return sqrt(var);
     double step = cfg->design ? wdr_cal_design_dac_step_codes(cfg->design, sqrt(lv->amps[0] * lv->amps[lv->n - 1]))
                               : 1.0;
-    return sqrt((1 + step * step) / 12);
+    return sqrt(var + (1 + step * step) / 12);
 }
 
 static void count_flags(wdr_cal_result *res)
@@ -211,7 +219,7 @@ int wdr_cal_fit_array(const wdr_cal_levels *lv, const wdr_cal_config *cfg, wdr_c
     }
     wdr_cal_detect_bad(lv, cfg, res->flags, &res->saturated_levels);
     double med[WDR_CAL_MAX_LEVELS];
-    if ((rc = level_medians(lv, res->flags, med)) || (rc = wdr_cal_fit_nominal(lv, res, med, err, errlen)))
+    if ((rc = wdr_cal_level_medians(lv, res->flags, med)) || (rc = wdr_cal_fit_nominal(lv, res, med, err, errlen)))
         return rc;
     fit_all_pixels(lv, res, med);
     count_flags(res);

@@ -26,8 +26,11 @@ int wdr_cal_fit_lsq_pixel(const wdr_cal_result *res, const double *y, const doub
 double wdr_cal_lsq_recover_u(const wdr_cal_result *res, const double *theta, double y);
 
 /* cal_fit_spline.c */
-int wdr_cal_falling_repair(const double *y, int n, double tie, double *out);
-int wdr_cal_fit_spline_pixel(const double *y, const double *med, int n, double tie, double *par);
+int wdr_cal_falling_fit(const double *y, int n, const double *tol, const double *w, double *out);
+int wdr_cal_fit_spline_pixel(const double *y, const double *med, int n, const double *tol, const double *w,
+                             double *par);
+/* Per level: the pair tolerances tol[k] (k-1, k) and weights 1/sd^2 for the falling fit. */
+void wdr_cal_level_tolerances(const wdr_cal_levels *lv, const wdr_cal_config *cfg, double *tol, double *w);
 double wdr_cal_spline_recover(const wdr_cal_result *res, const double *par, double y);
 
 /* cal_nominal.c */

@@ -135,7 +135,9 @@ int wdr_cal_fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const dou
     int st = WDR_FIT_OK;
     if (wdr_cal_is_curve_model(res->model)) {
         double falling[WDR_CAL_MAX_LEVELS] = {0};
-        st = wdr_cal_falling_repair(med, lv->n, res->cfg.tie_codes, falling); /* strictly falling: invertible */
+        double tol[WDR_CAL_MAX_LEVELS], w[WDR_CAL_MAX_LEVELS];
+        wdr_cal_level_tolerances(lv, &res->cfg, tol, w);
+        st = wdr_cal_falling_fit(med, lv->n, tol, w, falling); /* strictly falling: invertible */
         if (!st && !(falling[0] - falling[lv->n - 1] > lv->n * WDR_CAL_TIE_STEP))
             st = WDR_FIT_FLAT;
         design_end_ratios(lv, res->cfg.design, n->end_ratio);

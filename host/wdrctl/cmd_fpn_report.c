@@ -542,8 +542,24 @@ static int parse_models(const char *list, report *rp)
     return EX_OK;
 }
 
+/* Frames per level of the default condition, as `wdrctl calibrate --frames auto` chooses them from a
+ * probe that measured the noise (PROBE_FRAMES per level). */
+static int auto_frames(condition *c)
+{
+    double med[WDR_CAL_MAX_LEVELS];
+    wdr_cal_frames_choice why;
+    if (wdr_cal_level_medians(&c->grid, NULL, med))
+        return wdrctl_fail(EX_OSERR, "out of memory");
+    wdr_cal_frames_for(&c->grid, med, c->lo, c->hi, c->o.adc ? 1.0 : 0.0, AUTO_FRAMES_TARGET_PCT, AUTO_FRAMES_MAX,
+                       &why);
+    c->o.frames = why.frames;
+    fprintf(stderr, "fpn report: %s: %d frames per level (--frames auto: temporal noise %.3g codes at %.3g A)\n",
+            c->spec->name, why.frames, why.sigma_codes, why.at_amps);
+    return EX_OK;
+}
+
 /* A chip for condition c: the report's options with the condition's converters and noise; its probe
- * grid averaged over the condition's frames. */
+ * grid (one frame without noise, exact; with noise the frames asked for, or two to measure it). */
 static int open_condition(report *rp, condition *c, int which)
 {
     char err[512];
@@ -552,7 +568,9 @@ static int open_condition(report *rp, condition *c, int which)
     c->spec = &cond_specs[which];
     c->o = rp->o;
     c->o.adc = c->spec->adc, c->o.dac = c->spec->dac, c->o.noise = c->spec->noise;
-    c->o.frames = c->spec->noise ? (rp->o.frames > 0 ? rp->o.frames : 4) : 1; /* without noise one frame is exact */
+    int chosen = c->spec->noise && rp->o.frames_auto;
+    c->o.frames = !c->spec->noise ? 1 : chosen ? PROBE_FRAMES : rp->o.frames;
+    c->o.frames_auto = 0;
     if ((rc = cal_open_sim(&c->o, &rp->b, &c->chip)) != EX_OK)
         return rc;
     c->src = (wdr_cal_source){rp->b.width, rp->b.height, wdr_cal_sim_capture, &c->chip.ss};
@@ -561,7 +579,7 @@ static int open_condition(report *rp, condition *c, int which)
         return wdrctl_fail(EX_IOERR, "fpn report: %s: %s", c->spec->name, err);
     if (wdr_cal_informative_range(&c->grid, MIN_SLOPE_CODES, &c->lo, &c->hi))
         return wdrctl_fail(EX_DATAERR, "fpn report: %s: the response is flat everywhere", c->spec->name);
-    return EX_OK;
+    return chosen ? auto_frames(c) : EX_OK;
 }
 
 static int report_setup(report *rp)
