@@ -206,6 +206,21 @@ int wdr_display_by_decade(const wdr_display_error *e, int n, wdr_display_error *
     return m;
 }
 
+int wdr_nominal_response_table(const wdr_nominal *nom, int per_decade, double *ln_x, double *code, int max)
+{
+    double l0 = log(nom->x_lo) - 0.5 * log(10), l1 = log(nom->x_hi) + 0.5 * log(10);
+    int n = (int)ceil((l1 - l0) / log(10) * per_decade) + 1;
+    if (n > max || n < 2)
+        return 0;
+    for (int k = 0; k < n; k++) {
+        ln_x[k] = l0 + (l1 - l0) * k / (n - 1);
+        code[k] = wdr_nominal_eval(nom, exp(ln_x[k]));
+        if (!isfinite(code[k]) || (k > 0 && !(code[k] < code[k - 1])))
+            return 0;
+    }
+    return n;
+}
+
 /* ---- quantisation floor ---- */
 
 double wdr_quant_floor_pct(double log_slope_codes, double dac_step_codes)

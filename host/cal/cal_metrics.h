@@ -110,6 +110,13 @@ void wdr_display_error_of(const double *x_hat, long n, double x, const wdr_displ
  * their pixel counts; out gets at most max_out decades. @return the number of decades */
 int wdr_display_by_decade(const wdr_display_error *e, int n, wdr_display_error *out, int max_out);
 
+/* The nominal response as a table for the display mapping of corrected codes (host/lib/tonemap.h,
+ * wdr_response_curve): n points per_decade over [x_lo, x_hi] of the nominal widened by half a
+ * decade each side (the curve's own extension), ln x rising, codes falling. At 64 per decade,
+ * interpolating linearly in ln x stays within 0.1 code of the curve. @return the number of points
+ * (at most max; 0 when the curve does not fall strictly there) */
+int wdr_nominal_response_table(const wdr_nominal *nom, int per_decade, double *ln_x, double *code, int max);
+
 /* ---- quantisation floor ---- */
 
 /* Contrast error (%) that rounding alone leaves on a pixel read at slope |dy/d ln x| codes per
