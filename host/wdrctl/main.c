@@ -15,7 +15,7 @@ static const wdrctl_command commands[] = {
     {"lut", "plots", cmd_lut_plots, "[--board FILE] [--outdir DIR]  V_ref(t) and response of every operator"},
     {NULL, "tonemap", cmd_tonemap,
      "--scene FILE [--board B] [--operator NAME] [--param k=v]... [--scene-image HDR] -o SOFT.png\n"
-     "            [--capture CAP.pfm --side-by-side OUT.png]"},
+     "            [--capture CAP.pfm --side-by-side OUT.png [--nominal CALIBRATION.json]]"},
     /* Board commands take [--device sim:/path.sock|usb[:BUS-ADDR]] (default $WDR_DEVICE),
      * [--timeout MS] [--retries N] [--wait MS] (wait for a board that is starting). */
     {NULL, "devices", cmd_devices, "list wdrcam USB boards, and the simulated one given by --device"},
