@@ -92,6 +92,20 @@ static void total_error_splits_fpn_and_temporal(void **state)
     assert_int_equal(t.frames, m);
 }
 
+/* The current above x whose display level is `want` (bisection in ln x). */
+static double current_at_level(const wdr_display_map *d, double x, double want)
+{
+    double lo = log(x), hi = log(x) + 5;
+    for (int it = 0; it < 100; it++) {
+        double mid = 0.5 * (lo + hi);
+        if (wdr_display_level(d, exp(mid)) < want)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return exp(lo);
+}
+
 static void display_error_in_levels(void **state)
 {
     (void)state;
@@ -107,23 +121,16 @@ static void display_error_in_levels(void **state)
     /* the level of the operator and the display gamma, continuous */
     double t = wdr_operator_eval(&d.op, d.lum_per_amp * x);
     assert_double_equal(level, 255 * pow(t, 1 / 2.2), 1e-9);
-    /* 900 pixels exact, 100 pixels at the current that shows 3 levels higher */
-    double lo_l = log(x), hi_l = log(x) + 5;
-    for (int it = 0; it < 100; it++) { /* bisection in ln x for the current shown 3 levels higher */
-        double mid = 0.5 * (lo_l + hi_l);
-        if (wdr_display_level(&d, exp(mid)) < level + 3)
-            lo_l = mid;
-        else
-            hi_l = mid;
-    }
+    /* 800 pixels exact, 100 at the current shown 3 levels higher, 100 at 0.7 levels higher */
+    double x3 = current_at_level(&d, x, level + 3), x07 = current_at_level(&d, x, level + 0.7);
     for (int i = 0; i < 1000; i++)
-        xh[i] = i < 100 ? exp(lo_l) : x;
+        xh[i] = i < 100 ? x3 : i < 200 ? x07 : x;
     wdr_display_error e;
     wdr_display_error_of(xh, 1000, x, &d, &e);
     assert_int_equal(e.used, 1000);
-    assert_double_equal(e.mean_levels, 0.3, 1e-6);
-    assert_double_equal(e.mean_abs_levels, 0.3, 1e-6);
-    assert_double_equal(e.rms_levels, sqrt(0.1 * 9), 1e-6);
+    assert_double_equal(e.mean_levels, 0.37, 1e-6);
+    assert_double_equal(e.mean_abs_levels, 0.37, 1e-6);
+    assert_double_equal(e.rms_levels, sqrt(0.1 * 9 + 0.1 * 0.49), 1e-6);
     assert_double_equal(e.frac_over_1, 0.1, 1e-12);
     /* pooling per decade: two currents of 1e-12..1e-11 weighted by their pixels, one of the next */
     wdr_display_error per[3] = {e, e, e}, dec[3];
@@ -133,7 +140,7 @@ static void display_error_in_levels(void **state)
     assert_int_equal(wdr_display_by_decade(per, 3, dec, 3), 2);
     assert_double_equal(dec[0].x_lo, 1e-12, 1e-24);
     assert_double_equal(dec[0].x_hi, 1e-11, 1e-23);
-    assert_double_equal(dec[0].mean_levels, (0.3 * 1000 - 0.1 * 3000) / 4000, 1e-12);
+    assert_double_equal(dec[0].mean_levels, (0.37 * 1000 - 0.1 * 3000) / 4000, 1e-9);
     assert_double_equal(dec[0].frac_over_1, 0.1 * 1000 / 4000, 1e-12);
     assert_int_equal(dec[0].used, 4000);
     assert_double_equal(dec[1].x_lo, 1e-11, 1e-23);
