@@ -99,7 +99,7 @@ void wdr_cal_isotonic_falling(const double *y, const double *w, int n, double *o
 int wdr_cal_level_medians(const wdr_cal_levels *lv, const uint8_t *flags, double *med);
 
 typedef struct wdr_cal_frames_choice {
-    int frames, capped;
+    int frames, capped, needed; /* needed: the frames the target asks for, before the cap */
     double target_pct, at_amps, sigma_codes, slope, want_codes;
 } wdr_cal_frames_choice;
 int wdr_cal_frames_for(const wdr_cal_levels *probe, const double *med, double lo, double hi, double lsb,

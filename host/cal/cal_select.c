@@ -51,14 +51,15 @@ static int spaced_enough(const wdr_cal_levels *s, const wdr_cal_config *cfg, con
     return 1;
 }
 
-/* The fixed-pattern part of a judged level's contrast error: the probe's own temporal noise
- * (sd of its M-frame mean over the response slope) is taken out in quadrature, so a noisy
- * probe does not choose by its noise. */
+/* The fixed-pattern part of a judged level's contrast error: the probe's own temporal noise is
+ * taken out in quadrature, so a noisy probe does not choose by its noise. It enters twice, about
+ * equally: in the judged level's M-frame mean and in the pixel's fitted curve there, interpolated
+ * between its neighbouring levels' means (each sd over the response slope, in ln x). */
 static double fpn_only_pct(const wdr_cal_levels *s, const wdr_cal_result *res, int k, double sd_pct)
 {
     double slope = wdr_nominal_log_slope(&res->nominal, s->amps[k]);
     double noise_pct = slope > 0 ? 100 * wdr_cal_level_sd(s, k) / slope : 0;
-    double v = sd_pct * sd_pct - noise_pct * noise_pct;
+    double v = sd_pct * sd_pct - 2 * noise_pct * noise_pct;
     return v > 0 ? sqrt(v) : 0;
 }
 

@@ -80,12 +80,13 @@ int wdr_cal_frames_for(const wdr_cal_levels *probe, const double *med, double lo
         if (!(want > 0))
             continue;
         double m = ceil(sigma * sigma / (want * want));
-        if (m > out->frames || !out->at_amps) {
-            if (m > out->frames)
-                out->frames = (int)fmin(m, max_frames);
+        if (m > out->needed || !out->at_amps) {
+            if (m > out->needed)
+                out->needed = (int)fmin(m, 1e6);
             out->at_amps = probe->amps[k], out->sigma_codes = sigma, out->slope = slope, out->want_codes = want;
         }
     }
-    out->capped = out->frames >= max_frames;
+    out->frames = out->needed < 2 ? 2 : out->needed > max_frames ? max_frames : out->needed;
+    out->capped = out->needed > max_frames;
     return WDR_OK;
 }

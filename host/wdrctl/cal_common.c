@@ -230,14 +230,17 @@ static int choose_frames(const cal_opts *o, const wdr_cal_levels *probe, cal_run
     wdr_cal_frames_for(probe, med, r->lo, r->hi, o->adc ? 1.0 : 0.0, AUTO_FRAMES_TARGET_PCT, AUTO_FRAMES_MAX,
                        &r->why);
     r->frames = r->why.frames;
+    const char *why = r->why.want_codes > AUTO_FRAMES_TARGET_PCT / 100 * r->why.slope + 1e-12
+                          ? "half the ADC quantisation floor"
+                          : "a 0.5 % contrast error, half the eye's 1 % threshold";
     fprintf(stderr,
-            "wdrctl: --frames auto: %d frames per level (measured temporal noise %.3g codes per frame at %.3g A, "
-            "response %.3g codes per unit ln I: %d frames bring it below %.3g codes, %s)%s\n",
-            r->frames, r->why.sigma_codes, r->why.at_amps, r->why.slope, r->frames, r->why.want_codes,
-            r->why.want_codes > AUTO_FRAMES_TARGET_PCT / 100 * r->why.slope + 1e-12
-                ? "half the ADC quantisation floor"
-                : "a 0.5 % contrast error, half the eye's 1 % threshold",
-            r->why.capped ? " (capped)" : "");
+            "wdrctl: --frames auto: %d frames per level: the measured temporal noise is %.3g codes per frame at "
+            "%.3g A, where the response has %.3g codes per unit ln I; %d frames bring it below %.3g codes (%s)",
+            r->frames, r->why.sigma_codes, r->why.at_amps, r->why.slope, r->why.needed, r->why.want_codes, why);
+    if (r->why.capped)
+        fprintf(stderr, "; capped at %d frames, which leave %.3g codes", AUTO_FRAMES_MAX,
+                r->why.sigma_codes / sqrt((double)r->frames));
+    fputc('\n', stderr);
     return EX_OK;
 }
 

@@ -213,8 +213,10 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
     cJSON_AddItemToObject(j, "currents_A", cJSON_CreateDoubleArray(r->choice.amps, r->choice.n));
     cJSON_AddNumberToObject(j, "range_lo_A", r->lo);
     cJSON_AddNumberToObject(j, "range_hi_A", r->hi);
-    if (isfinite(r->choice.worst_pct))
+    if (isfinite(r->choice.worst_pct)) {
         cJSON_AddNumberToObject(j, "selection_worst_pct", r->choice.worst_pct);
+        cJSON_AddNumberToObject(j, "selection_worst_at_A", r->choice.worst_at);
+    }
     cJSON_AddNumberToObject(j, "pixels_flagged", (double)res->n_bad);
     cJSON_AddNumberToObject(j, "frames_per_level", r->frames);
     if (r->why.frames) { /* --frames auto: the level that decided and its figures */
@@ -224,6 +226,7 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
         cJSON_AddNumberToObject(a, "noise_codes_per_frame", r->why.sigma_codes);
         cJSON_AddNumberToObject(a, "slope_codes_per_ln_A", r->why.slope);
         cJSON_AddNumberToObject(a, "wanted_codes", r->why.want_codes);
+        cJSON_AddNumberToObject(a, "frames_needed", r->why.needed);
         cJSON_AddBoolToObject(a, "capped", r->why.capped);
     }
     static const char *flag_names[] = {"dead", "stuck", "hot", "saturated", "unfit"};

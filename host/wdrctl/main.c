@@ -31,7 +31,8 @@ static const wdrctl_command commands[] = {
     {"sim", "illuminant", cmd_sim_illuminant, "AMPS  light every pixel of a simulated board uniformly"},
     /* Calibration (cmd_cal.c): a board with --device or $WDR_DEVICE, else the simulator directly. */
     {NULL, "calibrate", cmd_calibrate,
-     "[--model spline|simple3|complex4|lsq|polymap] [--currents A,B,..|--levels-file F|--select N] [--frames M]\n"
+     "[--model spline|simple3|complex4|lsq|polymap] [--currents A,B,..|--levels-file F|--select N]\n"
+     "            [--frames M|auto (default: from the measured noise)]\n"
      "            [--board FILE] [--operator NAME] [--adc on|off] [--dac on|off]\n"
      "            [--device ADDR [--lut LUT.bin] [--upload]] [--out-scale 1..16]\n"
      "            [--form moebius|poly|basis]\n"

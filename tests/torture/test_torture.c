@@ -7,6 +7,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <cmocka.h>
+#include "cal_select.h"
 #include "cal_test_support.h"
 
 #define W 32
@@ -307,6 +308,8 @@ static void bad_pixels_flagged(void **state)
     assert_true(res.flags[HOT] & WDR_PIX_HOT);
     assert_true(res.flags[FLAT] & WDR_PIX_UNFIT);
     assert_true(res.flags[REV] & WDR_PIX_UNFIT);
+    assert_int_equal(res.status[FLAT], WDR_FIT_FLAT);     /* each for its own reason */
+    assert_int_equal(res.status[REV], WDR_FIT_REVERSED);
     assert_true(res.flags[NANPIX] != 0);
     assert_int_equal(res.n_bad, 7); /* the seven planted, no healthy pixel */
     assert_int_equal(host_sweep_bad(&res), 0);
@@ -389,12 +392,41 @@ static void reversed_array_refused(void **state)
     wdr_cal_levels_free(&lv);
 }
 
+/* The bright end flattens: levels there differ by less than a DAC step. Selection must never
+ * put two chosen levels closer than one DAC step plus 3 sigma of their difference. */
+static void close_levels_never_selected(void **state)
+{
+    (void)state;
+    double amps[25];
+    wdr_cal_levels lv;
+    draw_pixels();
+    log_levels(1e-14, 1e-7, 25, amps);
+    make_levels(&lv, amps, 25, 0.2);
+    wdr_cal_config cfg;
+    wdr_cal_config_defaults(&cfg, WDR_MODEL_SPLINE);
+    cfg.step_codes = 1.65; /* one 12-bit DAC step of the default board, in codes */
+    cfg.range_lo = amps[0], cfg.range_hi = amps[24];
+    wdr_cal_choice ch;
+    char err[256] = "";
+    assert_int_equal(wdr_cal_select_currents(&lv, &cfg, 19, amps[0], amps[24], NP, &ch, err, sizeof err), WDR_OK);
+    double med[25];
+    assert_int_equal(wdr_cal_level_medians(&lv, NULL, med), WDR_OK);
+    double closest = INFINITY, need = cfg.step_codes + cfg.spacing_sigmas * 0.2 * sqrt(2.0);
+    for (int j = 1; j < ch.n; j++)
+        closest = fmin(closest, fabs(med[ch.idx[j - 1]] - med[ch.idx[j]]));
+    printf("  selection: %d of 19 levels kept, closest pair %.3g codes apart (need > %.3g)\n", ch.n, closest, need);
+    assert_true(closest > need);
+    assert_true(ch.n >= 4);
+    wdr_cal_levels_free(&lv);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(currents_over_eight_decades), cmocka_unit_test(two_currents_within_a_thousandth),
         cmocka_unit_test(negative_discriminant),       cmocka_unit_test(bad_pixels_flagged),
         cmocka_unit_test(reversed_array_refused),      cmocka_unit_test(basis_from_too_few_good_pixels_refused),
+        cmocka_unit_test(close_levels_never_selected),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
