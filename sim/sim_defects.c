@@ -13,7 +13,10 @@
 
 static const char *const kind_names[WDR_DEFECT_KINDS] = {"none", "dead", "stuck", "hot", "saturated"};
 
-const char *wdr_defect_name(int kind) { return kind >= 0 && kind < WDR_DEFECT_KINDS ? kind_names[kind] : "?"; }
+const char *wdr_defect_name(int kind)
+{
+    return kind >= 0 && kind < WDR_DEFECT_KINDS ? kind_names[kind] : "?";
+}
 
 void sim_defects_free(wdr_sim *s)
 {
@@ -167,8 +170,8 @@ void sim_defects_codes(const wdr_sim *s, const sim_plan *plan, long i0, int n, d
             code[i - i0] = plan->adc_full; /* the column output at the ADC's top rail */
         } else if (d->kind == WDR_DEFECT_STUCK) {
             /* the follower reads the node where it is stuck: no droop, the column's read noise */
-            double c = plan->adc_scale * sim_sf_out(s, plan->fixed.sf_k[i * plan->fixed.stride], d->v_stuck) +
-                       plan->adc_zero;
+            double c =
+                plan->adc_scale * sim_sf_out(s, plan->fixed.sf_k[i * plan->fixed.stride], d->v_stuck) + plan->adc_zero;
             if (plan->on[WDR_FX_READ])
                 c += read_codes * sim_normal((uint32_t)sim_rng_at(key, (uint64_t)i));
             code[i - i0] = c;

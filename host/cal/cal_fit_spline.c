@@ -35,8 +35,7 @@ int wdr_cal_falling_fit(const double *y, int n, const double *tol, const double 
 /* SPLINE: the pixel's own responses are the model. Where the array's response falls clearly
  * between two levels (by far more than the pair's tolerance), a pixel that hardly moves there is
  * a stuck stretch, not noise. */
-int wdr_cal_fit_spline_pixel(const double *y, const double *med, int n, const double *tol, const double *w,
-                             double *par)
+int wdr_cal_fit_spline_pixel(const double *y, const double *med, int n, const double *tol, const double *w, double *par)
 {
     int st = wdr_cal_falling_fit(y, n, tol, w, par);
     for (int k = 1; !st && k < n; k++)

@@ -35,8 +35,11 @@ static void plant(wdr_sim *sim, const wdr_board *b)
 {
     long corner[4] = {0, (long)b->width * b->height - 1, (long)(b->height - 1) * b->width, b->width - 1};
     uint8_t kind[4] = {WDR_DEFECT_DEAD, WDR_DEFECT_HOT, WDR_DEFECT_STUCK, WDR_DEFECT_SATURATED};
-    wdr_sim_defects d = {.ppm = {0, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM}, .seed = 99, .n_listed = 4,
-                         .listed_index = corner, .listed_kind = kind};
+    wdr_sim_defects d = {.ppm = {0, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM},
+                         .seed = 99,
+                         .n_listed = 4,
+                         .listed_index = corner,
+                         .listed_kind = kind};
     assert_int_equal(wdr_sim_set_defects(sim, &d), WDR_OK);
 }
 
@@ -118,8 +121,7 @@ static void clean_chip_flags_at_most_10ppm(void **state)
     (void)state;
     run r = run_chip(0);
     double ppm = 1e6 * (double)r.flagged / (double)r.np;
-    printf("# clean chip: %ld of %ld pixels flagged (%.2f ppm), %d frames per level\n", r.flagged, r.np, ppm,
-           r.frames);
+    printf("# clean chip: %ld of %ld pixels flagged (%.2f ppm), %d frames per level\n", r.flagged, r.np, ppm, r.frames);
     assert_true(ppm <= MAX_FALSE_PPM);
 }
 

@@ -25,8 +25,7 @@ static void defects_behave_by_physics(void **state)
     test_chip_open(&tc, &b, "reinhard", 3);
     long idx[4] = {5, W + 9, 2 * W + 17, NP - 1};
     uint8_t kind[4] = {WDR_DEFECT_DEAD, WDR_DEFECT_HOT, WDR_DEFECT_STUCK, WDR_DEFECT_SATURATED};
-    wdr_sim_defects d = {.ppm = {0, 1000, 1000, 1000, 1000}, .n_listed = 4, .listed_index = idx,
-                         .listed_kind = kind};
+    wdr_sim_defects d = {.ppm = {0, 1000, 1000, 1000, 1000}, .n_listed = 4, .listed_index = idx, .listed_kind = kind};
     assert_int_equal(wdr_sim_set_defects(tc.s, &d), WDR_OK);
     /* 1000 ppm of 2048 pixels: 2 of each kind drawn, plus the 4 listed (they may override one) */
     long n = wdr_sim_defect_count(tc.s, WDR_DEFECT_NONE);
@@ -43,7 +42,7 @@ static void defects_behave_by_physics(void **state)
     assert_true(dark[5 + 1] - bright[5 + 1] > 1000);                /* its healthy neighbour responds */
     assert_true(dark[idx[1]] + 500 < dark[W + 10]);                 /* hot: lit in the dark */
     assert_true(abs((int)dark[idx[2]] - (int)bright[idx[2]]) <= 2); /* stuck: one code at every light */
-    assert_int_equal(bright[idx[3]], 4095);                          /* saturated: the top rail */
+    assert_int_equal(bright[idx[3]], 4095);                         /* saturated: the top rail */
     assert_int_equal(dark[idx[3]], 4095);
     /* healthy pixels: the same bits with the effect off */
     wdr_sim_set_effect(tc.s, WDR_FX_DEFECTS, WDR_FX_OFF);

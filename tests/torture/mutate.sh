@@ -21,7 +21,7 @@ mutations=(
 "7@host/cal/cal_stats.c@s/while (nb > 1 \&\& mean\[nb - 1\] > mean\[nb - 2\])/while (0)/@statistics: no pooling of reversals"
 "8@host/cal/cal_select.c@s/if (!(worst < best->worst_pct))/if (!(worst > best->worst_pct))/@selection: keeps the worst set of currents"
 "9@host/cal/cal_select.c@s/if (!(fabs(med\[idx\[j - 1\]\] - med\[idx\[j\]\]) > need))/if (!(fabs(med[idx[j - 1]] - med[idx[j]]) > -need))/@selection: levels closer than a DAC step + 3 sigma accepted"
-"10@host/cal/cal_table.c@s/flags\[i\] = res->flags\[i\];/flags[i] = 0;/@table: flagged pixels not marked in the table (not concealed)"
+"10@host/cal/cal_table.c@s/flags\[i\] = res->flags\[i\];/flags[i] = 0;/;s/flags\[i\] |= flags\[i\] ? 0 : WDR_PIX_UNFIT;/flags[i] |= 0;/@table: no pixel marked bad in the table (none concealed)"
 )
 tests='^(test_torture|test_cal_maths|test_cal_defects|test_cal_sim)$'
 targets="test_torture test_cal_maths test_cal_defects test_cal_sim"
