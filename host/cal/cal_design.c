@@ -4,8 +4,8 @@
 #include <math.h>
 #include <string.h>
 
-int wdr_cal_design_init(wdr_cal_design *d, const wdr_board *b, const char *op_name, double t_int_s,
-                        double t_after_s, int with_effects, char *err, int errlen)
+int wdr_cal_design_init(wdr_cal_design *d, const wdr_board *b, const char *op_name, double t_int_s, double t_after_s,
+                        int with_effects, char *err, int errlen)
 {
     wdr_lum_stats st;
     memset(d, 0, sizeof *d);

@@ -16,10 +16,10 @@ typedef struct wdr_cal_design {
     wdr_board board;
     wdr_ideal_pixel px;
     wdr_operator op;
-    double t_int_s;     /* integration time: the ramp's end (droop runs from the crossing to it) */
-    double t_after_s;   /* time from the end of integration until the row is read */
-    double leak_v_per_s;/* hold-node droop rate (0: no droop) */
-    double dark_a;      /* the median dark current, added to the photocurrent */
+    double t_int_s;      /* integration time: the ramp's end (droop runs from the crossing to it) */
+    double t_after_s;    /* time from the end of integration until the row is read */
+    double leak_v_per_s; /* hold-node droop rate (0: no droop) */
+    double dark_a;       /* the median dark current, added to the photocurrent */
 } wdr_cal_design;
 
 /* The design of board b under operator op_name (default parameters and the board's default scene
@@ -28,8 +28,8 @@ typedef struct wdr_cal_design {
  * (the middle row: height / 2 * row_time); with_effects: 0 leaves the droop and the dark
  * current out (the ideal pixel of the ramp design).
  * @retval WDR_OK, or the operator's error (err names it) */
-int wdr_cal_design_init(wdr_cal_design *d, const wdr_board *b, const char *op_name, double t_int_s,
-                        double t_after_s, int with_effects, char *err, int errlen);
+int wdr_cal_design_init(wdr_cal_design *d, const wdr_board *b, const char *op_name, double t_int_s, double t_after_s,
+                        int with_effects, char *err, int errlen);
 
 /* Unrounded ADC code of the designed pixel at photocurrent x (A). */
 double wdr_cal_design_code(const wdr_cal_design *d, double x);

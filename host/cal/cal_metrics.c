@@ -11,12 +11,9 @@ static double recovered(const wdr_cal_result *res, int path, long i, double y_ra
 {
     int st;
     switch (path) {
-    case WDR_PATH_RAW:
-        return wdr_nominal_invert(&res->nominal, y_raw);
-    case WDR_PATH_MODEL:
-        return wdr_cal_recover(res, i, y_raw, &st);
-    default:
-        return wdr_nominal_invert(&res->nominal, y_table);
+    case WDR_PATH_RAW: return wdr_nominal_invert(&res->nominal, y_raw);
+    case WDR_PATH_MODEL: return wdr_cal_recover(res, i, y_raw, &st);
+    default: return wdr_nominal_invert(&res->nominal, y_table);
     }
 }
 
@@ -33,7 +30,6 @@ static int table_frame(const wdr_cal_view *tab, const float *frame, float *out)
         out[i] /= tab->h.out_scale;
     return WDR_OK;
 }
-
 
 /* ---- x_hat ---- */
 
@@ -125,8 +121,8 @@ void wdr_total_error_of(const double *x_hat_a, const double *x_hat_b, const doub
     wdr_contrast_of(x_hat_m, n, x, x_lo, x_hi, &cm);
     out->total_1_pct = ca.sd_pct;
     out->total_m_pct = cm.sd_pct;
-    out->temporal_pct = temporal_pct(x_hat_a, x_hat_b, n, x_lo * pow(10, -UNRESOLVED_DECADES),
-                                     x_hi * pow(10, UNRESOLVED_DECADES));
+    out->temporal_pct =
+        temporal_pct(x_hat_a, x_hat_b, n, x_lo * pow(10, -UNRESOLVED_DECADES), x_hi * pow(10, UNRESOLVED_DECADES));
     out->fpn_pct = sqrt(fmax(ca.sd_pct * ca.sd_pct - out->temporal_pct * out->temporal_pct, 0));
 }
 
@@ -369,7 +365,8 @@ int wdr_fpn_frame(const wdr_cal_result *res, const wdr_cal_view *tab, int path, 
     for (long i = 0; i < np; i++) {
         if (rel_err)
             rel_err[i] = NAN;
-        if ((flags && flags[i]) || (corr && tab->payload && wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width])) {
+        if ((flags && flags[i]) ||
+            (corr && tab->payload && wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width])) {
             out->excluded++;
             continue;
         }

@@ -48,15 +48,15 @@ int wdr_fpn_recover(const wdr_cal_result *res, const wdr_cal_view *tab, int path
 /* ---- contrast error ---- */
 
 typedef struct wdr_contrast {
-    double x;             /* true photocurrent (A) */
-    double sd_pct;        /* 100 * sd of ln(x_hat / x) over the resolved pixels */
-    double mean_pct;      /* 100 * mean of ln(x_hat / x): the common bias */
-    double max_abs_pct;   /* 100 * worst |ln(x_hat / x)| */
-    long used;            /* resolved pixels, counted in the spread */
-    long beyond;          /* of them, outside [x_lo, x_hi] */
-    long unresolved;      /* left out: non-finite or more than a decade outside [x_lo, x_hi] */
-    long excluded;        /* left out by flags (x_hat NAN on input) */
-    double beyond_frac;   /* (beyond + unresolved) / (used + unresolved): pixels past the curve */
+    double x;           /* true photocurrent (A) */
+    double sd_pct;      /* 100 * sd of ln(x_hat / x) over the resolved pixels */
+    double mean_pct;    /* 100 * mean of ln(x_hat / x): the common bias */
+    double max_abs_pct; /* 100 * worst |ln(x_hat / x)| */
+    long used;          /* resolved pixels, counted in the spread */
+    long beyond;        /* of them, outside [x_lo, x_hi] */
+    long unresolved;    /* left out: non-finite or more than a decade outside [x_lo, x_hi] */
+    long excluded;      /* left out by flags (x_hat NAN on input) */
+    double beyond_frac; /* (beyond + unresolved) / (used + unresolved): pixels past the curve */
 } wdr_contrast;
 
 /* Contrast error of n recovered currents (NAN: excluded pixel) at true current x, for a curve
@@ -67,11 +67,11 @@ void wdr_contrast_of(const double *x_hat, long n, double x, double x_lo, double 
 
 typedef struct wdr_total_error {
     double x;
-    double fpn_pct;       /* fixed-pattern part: sqrt(total_1^2 - temporal^2) */
-    double temporal_pct;  /* one frame's temporal part: 100 * sd of ln(x_a / x_b) / sqrt 2 */
-    double total_1_pct;   /* one frame, FPN plus temporal (contrast error of frame a) */
-    int frames;           /* frames averaged for total_m_pct */
-    double total_m_pct;   /* contrast error of the average of `frames` frames, measured */
+    double fpn_pct;      /* fixed-pattern part: sqrt(total_1^2 - temporal^2) */
+    double temporal_pct; /* one frame's temporal part: 100 * sd of ln(x_a / x_b) / sqrt 2 */
+    double total_1_pct;  /* one frame, FPN plus temporal (contrast error of frame a) */
+    int frames;          /* frames averaged for total_m_pct */
+    double total_m_pct;  /* contrast error of the average of `frames` frames, measured */
 } wdr_total_error;
 
 /* From x_hat of two independent single frames a and b and of an average of `frames` frames
@@ -82,9 +82,9 @@ void wdr_total_error_of(const double *x_hat_a, const double *x_hat_b, const doub
 /* ---- display-space error ---- */
 
 typedef struct wdr_display_map {
-    wdr_operator op;      /* the tone-mapping operator T */
-    double lum_per_amp;   /* k: luminance per ampere of photocurrent */
-    double gamma;         /* display gamma (2.2) */
+    wdr_operator op;    /* the tone-mapping operator T */
+    double lum_per_amp; /* k: luminance per ampere of photocurrent */
+    double gamma;       /* display gamma (2.2) */
 } wdr_display_map;
 
 /* The map for board b under operator op_name with default parameters (as `wdrctl lut build`).
@@ -95,11 +95,11 @@ int wdr_display_map_init(wdr_display_map *d, const wdr_board *b, const char *op_
 double wdr_display_level(const wdr_display_map *d, double x);
 
 typedef struct wdr_display_error {
-    double x_lo, x_hi;    /* currents covered (one current, or a decade) */
-    double mean_levels;   /* mean of level(x_hat) - level(x): the bias a viewer sees as a whole */
+    double x_lo, x_hi;      /* currents covered (one current, or a decade) */
+    double mean_levels;     /* mean of level(x_hat) - level(x): the bias a viewer sees as a whole */
     double mean_abs_levels; /* mean |level(x_hat) - level(x)| */
-    double rms_levels;    /* rms of level(x_hat) - level(x) */
-    double frac_over_1;   /* fraction of pixels more than one level off */
+    double rms_levels;      /* rms of level(x_hat) - level(x) */
+    double frac_over_1;     /* fraction of pixels more than one level off */
     long used;
 } wdr_display_error;
 
@@ -128,23 +128,23 @@ double wdr_quant_floor_pct(double log_slope_codes, double dac_step_codes);
 /* ---- everything at one current, from a frame source ---- */
 
 typedef struct wdr_eval_opts {
-    int frames;           /* frames averaged per evaluation frame (the calibration's M; 1 without noise) */
-    int temporal;         /* 1: the source has temporal noise: two more single frames give the total error */
-    int quantised;        /* 1: converters on: the quantisation floor is computed, else it is 0 */
-    const wdr_display_map *display;  /* may be NULL: no display error */
-    const wdr_cal_design *design;    /* slope and DAC step for the floor (NULL: the nominal's slope, 1 code) */
-    int first_frame_no;   /* frame numbers (seeds) used: first_frame_no .. + frames + 2 */
+    int frames;                     /* frames averaged per evaluation frame (the calibration's M; 1 without noise) */
+    int temporal;                   /* 1: the source has temporal noise: two more single frames give the total error */
+    int quantised;                  /* 1: converters on: the quantisation floor is computed, else it is 0 */
+    const wdr_display_map *display; /* may be NULL: no display error */
+    const wdr_cal_design *design;   /* slope and DAC step for the floor (NULL: the nominal's slope, 1 code) */
+    int first_frame_no;             /* frame numbers (seeds) used: first_frame_no .. + frames + 2 */
 } wdr_eval_opts;
 
 typedef struct wdr_eval_point {
     double x;
-    wdr_contrast before;  /* raw codes through the nominal inverse (of the averaged frame) */
-    wdr_contrast model;   /* the model's own inverse in double */
-    wdr_contrast table;   /* the firmware table in float32 (what the product delivers) */
-    wdr_total_error total;/* table path: FPN, temporal, totals at 1 and `frames` frames (without temporal
-                             noise all of it is FPN) */
+    wdr_contrast before;   /* raw codes through the nominal inverse (of the averaged frame) */
+    wdr_contrast model;    /* the model's own inverse in double */
+    wdr_contrast table;    /* the firmware table in float32 (what the product delivers) */
+    wdr_total_error total; /* table path: FPN, temporal, totals at 1 and `frames` frames (without temporal
+                              noise all of it is FPN) */
     wdr_display_error display, display_before; /* table path and raw, in 8-bit levels */
-    double floor_pct;     /* quantisation floor at x (0 with converters off) */
+    double floor_pct;                          /* quantisation floor at x (0 with converters off) */
 } wdr_eval_point;
 
 /* Capture at uniform current x from src (an average of o->frames frames, and with o->temporal two
@@ -156,12 +156,12 @@ int wdr_eval_point_measure(const wdr_cal_result *res, const wdr_cal_view *tab, c
 /* ---- the older per-frame summary (selection, torture tests) ---- */
 
 typedef struct wdr_fpn_stats {
-    double x;          /* true photocurrent (A) */
-    double sd_pct;     /* spread across pixels: standard deviation of (x_hat - x)/x, % */
-    double mean_pct;   /* common bias, % */
-    double max_abs_pct;/* worst pixel |x_hat - x|/x, % */
+    double x;            /* true photocurrent (A) */
+    double sd_pct;       /* spread across pixels: standard deviation of (x_hat - x)/x, % */
+    double mean_pct;     /* common bias, % */
+    double max_abs_pct;  /* worst pixel |x_hat - x|/x, % */
     long used, excluded; /* pixels counted, flagged pixels left out */
-    long nonfinite;    /* outputs that were NaN or Inf (must stay 0) */
+    long nonfinite;      /* outputs that were NaN or Inf (must stay 0) */
 } wdr_fpn_stats;
 
 /* Contrast error of one uniform frame at current x through a path, as (x_hat - x)/x. flags (may be

@@ -25,8 +25,7 @@ double wdr_response_current(const wdr_response_curve *c, double code);
  * (droop and dark current included, as the array answered) to the current, then the operator,
  * T(k x). The ideal-pixel mapping above assumes a pixel without droop: a corrected capture's
  * shadows then come out brighter than the software tone map (+2 levels at 1e-14 A). */
-double wdr_code_to_display_curve(const wdr_response_curve *c, const wdr_operator *op, double lum_per_amp,
-                                 double code);
+double wdr_code_to_display_curve(const wdr_response_curve *c, const wdr_operator *op, double lum_per_amp, double code);
 
 /* Display-linear T to an 8-bit sRGB-like grey level (gamma 1/2.2). */
 uint8_t wdr_display_to_u8(double t);

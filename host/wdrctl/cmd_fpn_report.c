@@ -128,8 +128,11 @@ static void summarise(const report *rp, const condition *c, model_report *m)
 
 static int evaluate_model(report *rp, condition *c, model_report *m)
 {
-    wdr_eval_opts eo = {.frames = c->o.frames, .temporal = c->o.noise, .quantised = c->o.adc,
-                        .display = &rp->display, .design = &c->chip.design};
+    wdr_eval_opts eo = {.frames = c->o.frames,
+                        .temporal = c->o.noise,
+                        .quantised = c->o.adc,
+                        .display = &rp->display,
+                        .design = &c->chip.design};
     for (int k = 0; k < N_EVAL; k++) {
         eo.first_frame_no = 1000000 + 64 * k;
         if (wdr_eval_point_measure(&m->run.res, &m->tab, &c->src, rp->eval[k], &eo, &m->pt[k]))
@@ -172,7 +175,8 @@ static int write_contrast_data(const report *rp, const char *dir, char *path, si
         fprintf(f, "%g", rp->eval[k]);
         for (int c = 0; c < N_COND; c++) {
             const wdr_eval_point *p = &rp->c[c].m[0].pt[k];
-            fprintf(f, " %g %g %g", fmax(p->before.sd_pct, 1e-4), 100 * p->before.beyond_frac, fmax(p->floor_pct, 1e-4));
+            fprintf(f, " %g %g %g", fmax(p->before.sd_pct, 1e-4), 100 * p->before.beyond_frac,
+                    fmax(p->floor_pct, 1e-4));
             for (int i = 0; i < rp->n_models; i++)
                 fprintf(f, " %g %g", fmax(rp->c[c].m[i].pt[k].table.sd_pct, 1e-4),
                         fmax(rp->c[c].m[i].pt[k].model.sd_pct, 1e-4));
@@ -192,7 +196,8 @@ static int condition_panel(const report *rp, int c, const char *data, char *scri
     int n = snprintf(script, cap, "set title \"%s%s\" noenhanced\n", cd->spec->label, frames);
     n += snprintf(script + n, cap - (size_t)n,
                   "plot '%s' u 1:%d w lp lc rgb 'gray40' t 'before: sd of ln(x_hat/x)', "
-                  "1 w l dt 2 lc rgb 'black' t '1 %% (eye)'", data, base);
+                  "1 w l dt 2 lc rgb 'black' t '1 %% (eye)'",
+                  data, base);
     if (cd->o.adc)
         n += snprintf(script + n, cap - (size_t)n, ", '%s' u 1:%d w l lw 2 dt 3 lc rgb 'red' t 'quantisation floor'",
                       data, base + 2);
@@ -207,12 +212,13 @@ static int plot_contrast(const report *rp, const char *dir)
     char data[1024], script[16384], err[512];
     if (write_contrast_data(rp, dir, data, sizeof data))
         return wdrctl_fail(EX_CANTCREAT, "%s: cannot write plot data", data);
-    int n = snprintf(script, sizeof script,
-                     "set terminal pngcairo size 1800,600 noenhanced\nset output '%s/fpn_contrast.png'\nset logscale xy\n"
-                     "set multiplot layout 1,3 title 'FPN contrast error before and after correction (%s, %s)'\n"
-                     "set xlabel 'photocurrent (A)'\nset ylabel 'contrast error (%%, sd across pixels)'\n"
-                     "set yrange [0.01:1000]\nset grid\nset key top center font ',9'\n",
-                     rp->o.outdir, rp->o.op_name, rp->b.name);
+    int n =
+        snprintf(script, sizeof script,
+                 "set terminal pngcairo size 1800,600 noenhanced\nset output '%s/fpn_contrast.png'\nset logscale xy\n"
+                 "set multiplot layout 1,3 title 'FPN contrast error before and after correction (%s, %s)'\n"
+                 "set xlabel 'photocurrent (A)'\nset ylabel 'contrast error (%%, sd across pixels)'\n"
+                 "set yrange [0.01:1000]\nset grid\nset key top center font ',9'\n",
+                 rp->o.outdir, rp->o.op_name, rp->b.name);
     for (int c = 0; c < N_COND; c++)
         n += condition_panel(rp, c, data, script + n, sizeof script - (size_t)n);
     snprintf(script + n, sizeof script - (size_t)n, "unset multiplot\n");
@@ -257,15 +263,16 @@ static int plot_histograms(report *rp, const char *dir, double *before_sd, doubl
     if (histogram_data(rp, path, &sb, &sa))
         return wdrctl_fail(EX_SOFTWARE, "fpn report: histogram data failed");
     *before_sd = sb.sd_pct, *after_sd = sa.sd_pct;
-    snprintf(script, sizeof script,
-             "set terminal pngcairo size 1000,420\nset output '%s/fpn_histograms_1e-11.png'\nset multiplot layout 1,2 "
-             "title \"%s\" noenhanced\nset style fill solid 0.6\nset xlabel '100 ln(x_hat/x) (%%)'\nset ylabel 'pixels'\n"
-             "bw=%g\nbin(x)=bw*floor(x/bw)\nset title 'before correction, 1e-11 A (sd %.3g %%)'\n"
-             "plot '%s' u (bin($1)):(1) smooth freq w boxes notitle\nbw=%g\n"
-             "set title 'after (%s, float32 table; sd %.3g %%)'\nplot '%s' u (bin($2)):(1) smooth freq w boxes notitle\n"
-             "unset multiplot\n",
-             rp->o.outdir, rp->c[rp->primary].spec->label, fmax(sb.sd_pct / 8, 1e-6), sb.sd_pct, path,
-             fmax(sa.sd_pct / 8, 1e-6), cal_model_name(rp->models[0]), sa.sd_pct, path);
+    snprintf(
+        script, sizeof script,
+        "set terminal pngcairo size 1000,420\nset output '%s/fpn_histograms_1e-11.png'\nset multiplot layout 1,2 "
+        "title \"%s\" noenhanced\nset style fill solid 0.6\nset xlabel '100 ln(x_hat/x) (%%)'\nset ylabel 'pixels'\n"
+        "bw=%g\nbin(x)=bw*floor(x/bw)\nset title 'before correction, 1e-11 A (sd %.3g %%)'\n"
+        "plot '%s' u (bin($1)):(1) smooth freq w boxes notitle\nbw=%g\n"
+        "set title 'after (%s, float32 table; sd %.3g %%)'\nplot '%s' u (bin($2)):(1) smooth freq w boxes notitle\n"
+        "unset multiplot\n",
+        rp->o.outdir, rp->c[rp->primary].spec->label, fmax(sb.sd_pct / 8, 1e-6), sb.sd_pct, path,
+        fmax(sa.sd_pct / 8, 1e-6), cal_model_name(rp->models[0]), sa.sd_pct, path);
     int rc = wdr_gnuplot_run(script, err, sizeof err);
     return rc ? wdrctl_fail(EX_SOFTWARE, "fpn report: %s", err) : EX_OK;
 }
@@ -375,15 +382,42 @@ static int nonuniformity(report *rp, emva *e)
 /* ---- JSON summary ---- */
 
 typedef double (*point_field)(const wdr_eval_point *p);
-static double f_table(const wdr_eval_point *p) { return p->table.sd_pct; }
-static double f_model(const wdr_eval_point *p) { return p->model.sd_pct; }
-static double f_before(const wdr_eval_point *p) { return p->before.sd_pct; }
-static double f_beyond(const wdr_eval_point *p) { return p->before.beyond_frac; }
-static double f_floor(const wdr_eval_point *p) { return p->floor_pct; }
-static double f_total1(const wdr_eval_point *p) { return p->total.total_1_pct; }
-static double f_totalm(const wdr_eval_point *p) { return p->total.total_m_pct; }
-static double f_temporal(const wdr_eval_point *p) { return p->total.temporal_pct; }
-static double f_fpn(const wdr_eval_point *p) { return p->total.fpn_pct; }
+static double f_table(const wdr_eval_point *p)
+{
+    return p->table.sd_pct;
+}
+static double f_model(const wdr_eval_point *p)
+{
+    return p->model.sd_pct;
+}
+static double f_before(const wdr_eval_point *p)
+{
+    return p->before.sd_pct;
+}
+static double f_beyond(const wdr_eval_point *p)
+{
+    return p->before.beyond_frac;
+}
+static double f_floor(const wdr_eval_point *p)
+{
+    return p->floor_pct;
+}
+static double f_total1(const wdr_eval_point *p)
+{
+    return p->total.total_1_pct;
+}
+static double f_totalm(const wdr_eval_point *p)
+{
+    return p->total.total_m_pct;
+}
+static double f_temporal(const wdr_eval_point *p)
+{
+    return p->total.temporal_pct;
+}
+static double f_fpn(const wdr_eval_point *p)
+{
+    return p->total.fpn_pct;
+}
 
 static cJSON *point_array(const wdr_eval_point *pt, point_field f)
 {
@@ -437,7 +471,10 @@ static cJSON *model_json(const condition *c, const model_report *m)
     cJSON_AddItemToObject(j, "display_error_per_decade", display_json(m));
     cJSON_AddNumberToObject(j, "model_error_max_mV", m->err_max_mv);
     cJSON_AddNumberToObject(j, "model_error_median_mV", m->err_median_mv);
-    cJSON_AddNumberToObject(j, "paper_model_error_mV", m->model == WDR_MODEL_SIMPLE3 ? 15 : m->model == WDR_MODEL_COMPLEX4 ? 40 : 0);
+    cJSON_AddNumberToObject(j, "paper_model_error_mV",
+                            m->model == WDR_MODEL_SIMPLE3    ? 15
+                            : m->model == WDR_MODEL_COMPLEX4 ? 40
+                                                             : 0);
     cJSON_AddNumberToObject(j, "pixels_flagged", (double)r->res.n_bad);
     return j;
 }
@@ -505,9 +542,10 @@ static int write_json(const report *rp, const emva *e, double hist_before, doubl
     cJSON_AddNumberToObject(em, "dsnu_mV_after", e->dsnu_after_mv);
     cJSON_AddNumberToObject(em, "prnu_pct_before_at_1e-11A", e->prnu_pct);
     cJSON_AddNumberToObject(em, "prnu_pct_after_at_1e-11A", e->prnu_after_pct);
-    cJSON_AddStringToObject(em, "note", "nonlinear pixel: DSNU in mV at the ADC input, PRNU as the spread of the "
-                                        "signal above dark at 1e-11 A; primary condition (temporal noise off, so "
-                                        "no averaging needed)");
+    cJSON_AddStringToObject(em, "note",
+                            "nonlinear pixel: DSNU in mV at the ADC input, PRNU as the spread of the "
+                            "signal above dark at 1e-11 A; primary condition (temporal noise off, so "
+                            "no averaging needed)");
     cJSON *h = cJSON_AddObjectToObject(j, "histogram_1e-11A");
     cJSON_AddNumberToObject(h, "sd_before_pct", hist_before);
     cJSON_AddNumberToObject(h, "sd_after_pct", hist_after);
@@ -655,8 +693,10 @@ int cmd_fpn_report(int argc, char **argv)
             rc = report_outputs(rp);
     }
     if (rc == EX_OK)
-        fprintf(stderr, "wdrctl: FPN report in %s (fpn.json, fpn_contrast.png, fpn_histograms_1e-11.png, "
-                        "test_image_*.png)\n", rp->o.outdir);
+        fprintf(stderr,
+                "wdrctl: FPN report in %s (fpn.json, fpn_contrast.png, fpn_histograms_1e-11.png, "
+                "test_image_*.png)\n",
+                rp->o.outdir);
     report_free(rp);
     return rc;
 }

@@ -129,15 +129,17 @@ static void corrected_on_the_operators_curve(void **state)
             continue; /* concealed from neighbours: not this pixel's own reading */
         int dec = (int)floor(log10(amps[p] / 1e-14));
         double soft = wdr_display_to_u8(wdr_operator_eval(&c.display.op, c.display.lum_per_amp * amps[p]));
-        add(&curve, dec, wdr_display_to_u8(wdr_code_to_display_curve(&nominal, &c.display.op,
-                                                                      c.display.lum_per_amp, out[p])) - soft);
+        add(&curve, dec,
+            wdr_display_to_u8(wdr_code_to_display_curve(&nominal, &c.display.op, c.display.lum_per_amp, out[p])) -
+                soft);
         add(&ideal, dec, wdr_display_to_u8(wdr_code_to_display(&px, &c.b, out[p])) - soft);
     }
-    printf("  decade (A)   quantisation floor%%  nominal curve: mean  mean|.|   ideal pixel: mean  mean|.|  (8-bit levels)\n");
+    printf("  decade (A)   quantisation floor%%  nominal curve: mean  mean|.|   ideal pixel: mean  mean|.|  (8-bit "
+           "levels)\n");
     double worst = 0, worst_ideal = 0;
     for (int d = 0; d < DECADES; d++) {
         double x = 1e-14 * pow(10, d), fl = wdr_quant_floor_pct(wdr_cal_design_log_slope(&c.design, x),
-                                                                 wdr_cal_design_dac_step_codes(&c.design, x));
+                                                                wdr_cal_design_dac_step_codes(&c.design, x));
         double m = curve.sum[d] / curve.n[d], mi = ideal.sum[d] / ideal.n[d];
         int above = x >= sensor_floor * (1 - 1e-9);
         printf("  %.0e..%.0e  %7.2f  %18.3f %8.3f   %17.3f %8.3f%s\n", x, 10 * x, fl, m, curve.sum_abs[d] / curve.n[d],

@@ -90,7 +90,8 @@ static void judge(chip *c, int model, int use_design, const double *x, double *t
     if (wdr_cal_select_currents(&c->grid, &cfg, n_cur, 1e-14, 1e-8, 256, &ch, err, sizeof err))
         fail_msg("select: %s", err);
     assert_int_equal(wdr_cal_levels_from_choice(&c->grid, &ch, &lv), WDR_OK);
-    if (wdr_cal_fit_array(&lv, &cfg, &res, err, sizeof err) || wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err))
+    if (wdr_cal_fit_array(&lv, &cfg, &res, err, sizeof err) ||
+        wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err))
         fail_msg("calibrate: %s", err);
     assert_int_equal(wdr_cal_parse(tb, tl, &tab), WDR_OK);
     wdr_eval_opts eo = {.frames = 1, .quantised = c->ss.quantised, .design = &c->design};
@@ -141,7 +142,8 @@ static void every_model_against_its_floor(void **state)
         judge(&q12, cases[m].model, 1, x, e, em);
         judge(&q12, cases[m].model, 0, x, old, oldm);
         printf("  %s: current(A)  analog%%  12-bit table%%  model%%  (three-point ends)  quantisation floor%%  "
-               "its floor%%\n", cases[m].name);
+               "its floor%%\n",
+               cases[m].name);
         for (int k = 0; k < N_TEST; k++) {
             double qf = wdr_quant_floor_pct(wdr_cal_design_log_slope(&q12.design, x[k]),
                                             wdr_cal_design_dac_step_codes(&q12.design, x[k]));
@@ -152,8 +154,8 @@ static void every_model_against_its_floor(void **state)
             worst_old = fmax(worst_old, old[k] / fl);
         }
         printf("  %s: worst over its floor %.3f (table, limit %.1f), %.3f (model, limit %.1f); three-point ends: "
-               "%.3f (table)\n", cases[m].name, worst_t, cases[m].table_limit, worst_m, cases[m].model_limit,
-               worst_old);
+               "%.3f (table)\n",
+               cases[m].name, worst_t, cases[m].table_limit, worst_m, cases[m].model_limit, worst_old);
         ok &= worst_t <= cases[m].table_limit && worst_m <= cases[m].model_limit;
     }
     assert_true(ok);

@@ -51,10 +51,10 @@ static void clamps_are_counted_not_spread(void **state)
     for (int i = 0; i < N; i++)
         xh[i] = x * exp(0.02 * normal(&s));
     for (int i = 0; i < 100; i++)
-        xh[i] = 1e-2;             /* clamped inverse */
-    xh[100] = NAN;                /* flagged pixel */
-    xh[101] = INFINITY;           /* no inverse */
-    xh[102] = 1.5e-8;             /* past the range, within a decade */
+        xh[i] = 1e-2;   /* clamped inverse */
+    xh[100] = NAN;      /* flagged pixel */
+    xh[101] = INFINITY; /* no inverse */
+    xh[102] = 1.5e-8;   /* past the range, within a decade */
     wdr_contrast c;
     wdr_contrast_of(xh, N, x, lo, hi, &c);
     assert_int_equal(c.excluded, 1);
