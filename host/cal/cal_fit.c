@@ -1,6 +1,7 @@
 /* Array calibration: configuration, checks, per-pixel fits of every model, recovery. The pieces:
  * cal_pchip.c (monotone cubic), cal_nominal.c (nominal pixel), cal_bad.c (bad pixels),
  * cal_fit_paper.c, cal_fit_lsq.c, cal_fit_spline.c (per-model fits). Tables: cal_table.c. */
+#include "cal_design.h"
 #include "cal_fit_internal.h"
 #include "wdr_err.h"
 #include <math.h>
@@ -164,6 +165,26 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
     }
 }
 
+/* cfg.code_noise, or when 0: the temporal noise left in the levels' means (measured with the
+ * levels, RMS over them), and one rounding of the ADC (1 code) and of the DAC (its step in ADC
+ * codes from the design, else one code) if the levels are whole codes, as quantised frames
+ * averaged without noise are (noise dithers the rounding away otherwise). */
+static double level_code_noise(const wdr_cal_levels *lv, const wdr_cal_config *cfg)
+{
+    if (cfg->code_noise > 0)
+        return cfg->code_noise;
+    double var = 0;
+    for (int k = 0; k < lv->n; k++)
+        var += wdr_cal_level_sd(lv, k) * wdr_cal_level_sd(lv, k) / lv->n;
+    long np = (long)lv->width * lv->height, probe = np * lv->n < 4096 ? np * lv->n : 4096;
+    for (long i = 0; i < probe; i++)
+        if (lv->frames[i] != floorf(lv->frames[i]))
+            return sqrt(var);
+    double step = cfg->design ? wdr_cal_design_dac_step_codes(cfg->design, sqrt(lv->amps[0] * lv->amps[lv->n - 1]))
+                              : 1.0;
+    return sqrt(var + (1 + step * step) / 12);
+}
+
 static void count_flags(wdr_cal_result *res)
 {
     long np = (long)res->width * res->height;
@@ -202,6 +223,7 @@ int wdr_cal_fit_array(const wdr_cal_levels *lv, const wdr_cal_config *cfg, wdr_c
         return rc;
     fit_all_pixels(lv, res, med);
     count_flags(res);
+    res->code_noise = level_code_noise(lv, cfg);
     return WDR_OK;
 }
 

@@ -30,6 +30,8 @@ typedef struct wdr_pchip {
     double lx[WDR_PCHIP_MAX], y[WDR_PCHIP_MAX], m[WDR_PCHIP_MAX];
 } wdr_pchip;
 
+struct wdr_cal_design;
+
 /* The nominal pixel: what a corrected pixel reports for current x. */
 typedef struct wdr_nominal {
     int model; /* enum wdr_cal_model_id: SIMPLE3 and COMPLEX4 use their model, LSQ/POLYMAP the PCHIP */
@@ -37,6 +39,9 @@ typedef struct wdr_nominal {
     wdr_complex4 c4;
     wdr_pchip curve;
     double x_lo, x_hi; /* calibrated range (A) */
+    /* curves: slope at the first and last knot over the secant to its neighbour, from the designed
+       response (cal_design.h); 0: three-point estimates from the knots alone */
+    double end_ratio[2];
     double y_top;      /* LSQ: the nominal level at zero current (the lowest two levels' secant) */
     /* LSQ: ln x at codes z0 + k dz, a starting point that one Newton step on the curve polishes */
     double *inv_lx, inv_z0, inv_dz;
@@ -62,6 +67,12 @@ typedef struct wdr_cal_config {
     double range_lo, range_hi; /* currents the table must serve (A); 0: the calibration currents' span */
     double tie_codes;   /* SPLINE/LSQ curves: neighbouring levels closer than this are quantisation ties
                            (default 0.5, half an ADC code; about 1e-3 for unquantised data) */
+    const struct wdr_cal_design *design; /* the designed response (may be NULL): curve models take
+                           their end slopes from its shape instead of three-point estimates */
+    double code_noise;  /* rms uncertainty of a calibration level's code (codes): rounding of the ADC
+                           and DAC, temporal noise left after averaging. 0: auto, the levels'
+                           measured noise over sqrt(M), with the converters' rounding when the
+                           levels are whole codes */
     double tie_sigmas;  /* k: a reversal counts only beyond tie_codes + k sigma sqrt(2/M) of the measured
                            temporal noise (default 5: about 3e-7 false reversals per pair of levels) */
     double step_codes;  /* smallest response step the ramp resolves (one DAC step, codes; 0: unknown):
@@ -110,6 +121,8 @@ typedef struct wdr_cal_result {
     long n_status[WDR_FIT_COUNT];
     long n_bad;
     int saturated_levels; /* levels where the array median sits at a rail */
+    double code_noise;    /* rms uncertainty of a level's code used by the tables' fits (cfg.code_noise
+                             or its auto value) */
 } wdr_cal_result;
 
 /* Detect dead, stuck, hot and saturated pixels into flags (width*height, zeroed first). */
@@ -160,6 +173,9 @@ void wdr_cal_default_form(wdr_cal_config *cfg, int operator_id);
 
 /* Monotone interpolation helpers (exposed for tests). */
 int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n);
+/* The same with end slopes end_ratio[0] * first secant and end_ratio[1] * last secant (a ratio of 0
+ * keeps the three-point estimate); where they would break monotonicity the PCHIP end is used. */
+int wdr_pchip_init_ends(wdr_pchip *p, const double *lx, const double *y, int n, const double *end_ratio);
 double wdr_pchip_eval(const wdr_pchip *p, double lx);
 double wdr_pchip_slope(const wdr_pchip *p, double lx);
 /* ln x where the curve reaches y (linear beyond the ends; the curve must be strictly monotone). */

@@ -47,7 +47,7 @@ int wdr_cal_fit_spline_pixel(const double *y, const double *med, int n, const do
 double wdr_cal_spline_recover(const wdr_cal_result *res, const double *par, double y)
 {
     wdr_pchip p;
-    if (wdr_pchip_init(&p, res->nominal.curve.lx, par, res->nominal.curve.n))
+    if (wdr_pchip_init_ends(&p, res->nominal.curve.lx, par, res->nominal.curve.n, res->nominal.end_ratio))
         return 0;
     double lx = wdr_pchip_invert(&p, y);
     return lx > log(1e-22) ? exp(fmin(lx, log(1e-2))) : 0;

@@ -1,5 +1,6 @@
 /* The nominal pixel: what a corrected pixel reports for a current, the curve or model fitted to
  * the array median, and its fast inverse table (LSQ). */
+#include "cal_design.h"
 #include "cal_fit_internal.h"
 #include "wdr_err.h"
 #include <math.h>
@@ -110,6 +111,16 @@ static double nominal_dark_top(const wdr_cal_levels *lv, const double *med)
     double b = (med[0] - med[1]) / (lv->amps[1] - lv->amps[0]);
     return med[0] + b * lv->amps[0];
 }
+/* End slopes of the curves from the designed response's shape at the first and last two knots. */
+static void design_end_ratios(const wdr_cal_levels *lv, const wdr_cal_design *d, double *ratio)
+{
+    ratio[0] = ratio[1] = 0;
+    if (!d || lv->n < 3 || !(lv->amps[0] > 0))
+        return;
+    ratio[0] = wdr_cal_design_end_ratio(d, lv->amps[0], lv->amps[1]);
+    ratio[1] = wdr_cal_design_end_ratio(d, lv->amps[lv->n - 1], lv->amps[lv->n - 2]);
+}
+
 int wdr_cal_fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const double *med, char *err, int errlen)
 {
     wdr_nominal *n = &res->nominal;
@@ -129,8 +140,9 @@ int wdr_cal_fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const dou
         st = wdr_cal_falling_fit(med, lv->n, tol, w, falling); /* strictly falling: invertible */
         if (!st && !(falling[0] - falling[lv->n - 1] > lv->n * WDR_CAL_TIE_STEP))
             st = WDR_FIT_FLAT;
+        design_end_ratios(lv, res->cfg.design, n->end_ratio);
         if (!st)
-            st = wdr_pchip_init(&n->curve, lx, falling, lv->n) ? WDR_FIT_REVERSED : WDR_FIT_OK;
+            st = wdr_pchip_init_ends(&n->curve, lx, falling, lv->n, n->end_ratio) ? WDR_FIT_REVERSED : WDR_FIT_OK;
         n->y_top = !st ? nominal_dark_top(lv, falling) : 0;
         if (!st && res->model == WDR_MODEL_LSQ && wdr_nominal_build_inverse_table(n))
             return WDR_E_NOMEM;

@@ -25,16 +25,21 @@ static double quadratic_end_slope(double h0, double h1, double d0, double d1)
 
 /* Knot slopes of the C2 cubic spline, its end slopes clamped to the three-point estimates (a
  * natural end would force zero curvature where the response still bends). Tridiagonal solve. */
-static void spline_slopes(const double *h, const double *d, int n, double *m)
+static void spline_slopes(const double *h, const double *d, int n, const double *ratio, double *m)
 {
     double diag[WDR_PCHIP_MAX], rhs[WDR_PCHIP_MAX], up[WDR_PCHIP_MAX];
     diag[0] = 1, up[0] = 0, rhs[0] = n > 2 ? quadratic_end_slope(h[0], h[1], d[0], d[1]) : d[0];
+    if (ratio && ratio[0] > 0)
+        rhs[0] = ratio[0] * d[0]; /* the design's shape: a three-point slope misses a response that
+                                     bends by a factor over one knot interval (the dark end) */
     for (int k = 1; k < n - 1; k++) {
         diag[k] = 2 * (h[k - 1] + h[k]);
         up[k] = h[k - 1];
         rhs[k] = 3 * (h[k] * d[k - 1] + h[k - 1] * d[k]);
     }
     diag[n - 1] = 1, rhs[n - 1] = n > 2 ? quadratic_end_slope(h[n - 2], h[n - 3], d[n - 2], d[n - 3]) : d[0];
+    if (ratio && ratio[1] > 0)
+        rhs[n - 1] = ratio[1] * d[n - 2];
     /* row k: lower = h[k] (k < n-1) or 0 (last, clamped), diag, upper = up[k] */
     for (int k = 1; k < n; k++) {
         double lower = k < n - 1 ? h[k] : 0, f = lower / diag[k - 1];
@@ -73,6 +78,11 @@ static void harmonic_slopes(const double *h, const double *d, int n, double *m)
 
 int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n)
 {
+    return wdr_pchip_init_ends(p, lx, y, n, NULL);
+}
+
+int wdr_pchip_init_ends(wdr_pchip *p, const double *lx, const double *y, int n, const double *end_ratio)
+{
     double h[WDR_PCHIP_MAX], d[WDR_PCHIP_MAX], safe[WDR_PCHIP_MAX];
     if (n < 2 || n > WDR_PCHIP_MAX)
         return WDR_E_INVAL;
@@ -91,7 +101,7 @@ int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n)
         p->m[0] = p->m[1] = d[0];
         return WDR_OK;
     }
-    spline_slopes(h, d, n, p->m);
+    spline_slopes(h, d, n, end_ratio, p->m);
     harmonic_slopes(h, d, n, safe);
     for (int k = 0; k < n - 1; k++)
         if (!segment_monotone(d[k], p->m[k], p->m[k + 1]))

@@ -107,6 +107,14 @@ int cal_load_board(const char *name, wdr_board *b)
     return rc ? wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_CONFIG, "%s", err) : EX_OK;
 }
 
+int cal_design_for(const wdr_board *b, const char *op_name, double t_int_s, wdr_cal_design *d)
+{
+    char err[512];
+    if (wdr_cal_design_init(d, b, op_name, t_int_s, b->height / 2 * b->row_time_s, 1, err, sizeof err))
+        return wdrctl_fail(EX_CONFIG, "designed response for operator '%s': %s", op_name, err);
+    return EX_OK;
+}
+
 int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c)
 {
     char err[512];
@@ -114,14 +122,21 @@ int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c)
         return wdrctl_fail(EX_CONFIG, "simulated chip for operator '%s': %s", o->op_name, err);
     if (!o->dac)
         wdr_sim_set_effect(c->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
+    static const int temporal[] = {WDR_FX_SHOT, WDR_FX_KTC, WDR_FX_READ};
+    for (int k = 0; o->noise && k < 3; k++)
+        wdr_sim_set_effect(c->sim, temporal[k], WDR_FX_ON);
     c->ss = (wdr_cal_simsrc){c->sim, o->adc, 1000};
-    return EX_OK;
+    int rc = cal_design_for(b, o->op_name, wdr_sim_integration_time(c->sim), &c->design);
+    if (rc != EX_OK)
+        cal_close_sim(c);
+    return rc;
 }
 
 void cal_close_sim(sim_chip *c)
 {
     wdr_sim_destroy(c->sim);
     free(c->lut);
+    c->sim = NULL, c->lut = NULL;
 }
 
 /* ---- progress ---- */

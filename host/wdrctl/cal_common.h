@@ -3,6 +3,7 @@
 #ifndef WDRCTL_CAL_COMMON_H
 #define WDRCTL_CAL_COMMON_H
 #include "board.h"
+#include "cal_design.h"
 #include "cal_engine.h"
 #include "cal_select.h"
 #include "wdrctl.h"
@@ -18,6 +19,7 @@
 typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
     int select_n, frames, adc, dac, upload, json, sample, out_scale;
+    int noise; /* simulated chip: temporal noise (shot, kTC, read) on; not an option yet (fpn report sets it) */
     const char *frames_text; /* --frames M or auto */
     int frames_auto;         /* --frames auto (the default): chosen from the probe's measured noise */
     int form;                /* enum wdr_cal_form; -1: the model's default */
@@ -50,6 +52,7 @@ typedef struct sim_chip {
     wdr_sim *sim;
     uint8_t *lut;
     wdr_cal_simsrc ss;
+    wdr_cal_design design; /* the chip's designed response (end slopes, quantisation floor) */
 } sim_chip;
 
 typedef struct cal_run {
@@ -80,6 +83,9 @@ const char *cal_form_name(int form);
 
 /* @return a sysexits code; the failure is printed */
 int cal_load_board(const char *name, wdr_board *b);
+/* The designed response of board b under operator op_name for a LUT of integration time t_int_s
+ * (0: the ramp design's), read at the middle row. @return a sysexits code */
+int cal_design_for(const wdr_board *b, const char *op_name, double t_int_s, wdr_cal_design *d);
 int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c);
 void cal_close_sim(sim_chip *c);
 wdr_cal_progress_fn cal_progress_fn(void);

@@ -76,6 +76,107 @@ static void close_device(device_src *d)
     wdrctl_disconnect(&d->conn);
 }
 
+/* ---- verification: the figures of host/cal/cal_metrics.h on fresh frames ---- */
+
+#define VERIFY_CURRENTS 7      /* log-spaced over the calibrated range, about one per decade */
+#define VERIFY_MAX_FRAMES 4    /* frames averaged per verification frame (at most the calibration's) */
+#define NOMINAL_PER_DECADE 64  /* nominal response points for the display mapping (tonemap --nominal) */
+
+typedef struct verify_ctx {
+    int can_light;  /* the source sets its own uniform light (simulator, simulated board) */
+    int quantised;  /* converters on */
+    int temporal;   /* temporal noise expected (a board: yes; the simulator: as set up) */
+    const char *holds_with; /* the conditions, printed beside the figures */
+    const wdr_cal_design *design;
+    wdr_display_map display;
+} verify_ctx;
+
+typedef struct verify_result {
+    int n, frames;
+    wdr_eval_point pt[VERIFY_CURRENTS];
+} verify_result;
+
+static int verify_display(const cal_opts *o, const wdr_board *b, verify_ctx *v)
+{
+    char err[512];
+    if (wdr_display_map_init(&v->display, b, o->op_name, err, sizeof err))
+        return wdrctl_fail(EX_USAGE, "calibrate: operator '%s': %s", o->op_name, err);
+    return EX_OK;
+}
+
+static int verify(const cal_opts *o, const wdr_cal_source *src, const cal_run *r, const verify_ctx *v, verify_result *out)
+{
+    char err[512];
+    wdr_cal_view tab;
+    out->n = 0;
+    if (!o->json || !v->can_light || wdr_cal_parse(r->table, r->table_len, &tab))
+        return EX_OK;
+    out->frames = r->frames < VERIFY_MAX_FRAMES ? r->frames : VERIFY_MAX_FRAMES;
+    wdr_eval_opts eo = {.frames = out->frames, .temporal = v->temporal, .quantised = v->quantised,
+                        .display = &v->display, .design = v->design};
+    for (int k = 0; k < VERIFY_CURRENTS; k++) {
+        double x = r->lo * pow(r->hi / r->lo, (k + 0.5) / VERIFY_CURRENTS);
+        eo.first_frame_no = 5000000 + 16 * k;
+        int rc = wdr_eval_point_measure(&r->res, &tab, src, x, &eo, &out->pt[k]);
+        if (rc) {
+            snprintf(err, sizeof err, "%s", wdr_strerror(rc));
+            return wdrctl_fail(EX_IOERR, "calibrate: verification frames at %.3g A failed: %s", x, err);
+        }
+        out->n++;
+    }
+    return EX_OK;
+}
+
+static cJSON *verification_json(const verify_ctx *v, const verify_result *vr)
+{
+    cJSON *j = cJSON_CreateObject();
+    double a[7][VERIFY_CURRENTS];
+    wdr_display_error per[VERIFY_CURRENTS], dec[8];
+    for (int k = 0; k < vr->n; k++) {
+        const wdr_eval_point *p = &vr->pt[k];
+        a[0][k] = p->x, a[1][k] = p->before.sd_pct, a[2][k] = p->before.beyond_frac, a[3][k] = p->table.sd_pct;
+        a[4][k] = p->floor_pct, a[5][k] = p->total.total_1_pct, a[6][k] = p->total.temporal_pct;
+        per[k] = p->display;
+    }
+    static const char *names[] = {"photocurrents_A", "contrast_before_pct", "before_beyond_curve_frac",
+                                  "contrast_after_table_pct", "quantisation_floor_pct", "total_one_frame_pct",
+                                  "temporal_one_frame_pct"};
+    cJSON_AddStringToObject(j, "holds_with", v->holds_with);
+    cJSON_AddNumberToObject(j, "frames_averaged", vr->frames);
+    for (int q = 0; q < 7; q++)
+        cJSON_AddItemToObject(j, names[q], cJSON_CreateDoubleArray(a[q], vr->n));
+    int nd = wdr_display_by_decade(per, vr->n, dec, 8);
+    cJSON *d = cJSON_AddArrayToObject(j, "display_error_per_decade");
+    for (int k = 0; k < nd; k++) {
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddNumberToObject(e, "from_A", dec[k].x_lo);
+        cJSON_AddNumberToObject(e, "to_A", dec[k].x_hi);
+        cJSON_AddNumberToObject(e, "mean_levels", dec[k].mean_levels);
+        cJSON_AddNumberToObject(e, "mean_abs_levels", dec[k].mean_abs_levels);
+        cJSON_AddNumberToObject(e, "frac_off_by_more_than_1_level", dec[k].frac_over_1);
+        cJSON_AddItemToArray(d, e);
+    }
+    cJSON_AddStringToObject(j, "note", "figures of host/cal/cal_metrics.h (as wdrctl fpn report): contrast error "
+                                       "100 sd of ln(x_hat/x) on fresh frames, averaged over frames_averaged; total "
+                                       "and temporal from single frames");
+    return j;
+}
+
+/* The nominal response the corrected codes lie on: `wdrctl tonemap --nominal` maps them to display. */
+static cJSON *nominal_json(const cal_run *r)
+{
+    double lx[1024], code[1024];
+    int n = wdr_nominal_response_table(&r->res.nominal, NOMINAL_PER_DECADE, lx, code, 1024);
+    cJSON *j = cJSON_CreateObject();
+    for (int k = 0; k < n; k++)
+        lx[k] = exp(lx[k]);
+    cJSON_AddItemToObject(j, "amps_A", cJSON_CreateDoubleArray(lx, n));
+    cJSON_AddItemToObject(j, "codes", cJSON_CreateDoubleArray(code, n));
+    cJSON_AddStringToObject(j, "note", "corrected output codes (before out_scale) as functions of the photocurrent: "
+                                       "the array's median response, droop and dark current included");
+    return j;
+}
+
 /* ---- the command ---- */
 
 static int write_file(const char *path, const uint8_t *buf, size_t len)
@@ -89,7 +190,10 @@ static int write_file(const char *path, const uint8_t *buf, size_t len)
     return fclose(f) ? wdrctl_fail(EX_IOERR, "%s: write failed", path) : EX_OK;
 }
 
-static void print_summary(const cal_opts *o, const cal_run *r)
+static cJSON *verification_json(const verify_ctx *v, const verify_result *vr);
+static cJSON *nominal_json(const cal_run *r);
+
+static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx *v, const verify_result *vr)
 {
     const wdr_cal_result *res = &r->res;
     if (!o->json) {
@@ -134,6 +238,9 @@ static void print_summary(const cal_opts *o, const cal_run *r)
         if (res->n_status[st])
             cJSON_AddNumberToObject(why, wdr_fit_status_name(st), (double)res->n_status[st]);
     cJSON_AddNumberToObject(j, "table_bytes", (double)r->table_len);
+    if (vr->n)
+        cJSON_AddItemToObject(j, "verification", verification_json(v, vr));
+    cJSON_AddItemToObject(j, "nominal_response", nominal_json(r));
     char *text = cJSON_Print(j);
     printf("%s\n", text);
     free(text);
@@ -150,15 +257,19 @@ static int upload_table(device_src *d, const cal_run *r)
 }
 
 static int calibrate_with(const cal_opts *o, const wdr_cal_source *src, cal_run *r, uint32_t sensor_id, int op_id,
-                          int model)
+                          int model, const verify_ctx *v)
 {
+    verify_result vr = {0};
+    r->cfg.design = v->design; /* end slopes from the designed response */
     int rc = cal_plan_currents(o, src, r, o->select_n ? o->select_n : cal_default_currents(model));
     if (rc == EX_OK)
         rc = cal_acquire_and_fit(o, src, r, sensor_id, op_id);
     if (rc == EX_OK && o->out)
         rc = write_file(o->out, r->table, r->table_len);
     if (rc == EX_OK)
-        print_summary(o, r);
+        rc = verify(o, src, r, v, &vr);
+    if (rc == EX_OK)
+        print_summary(o, r, v, &vr);
     return rc;
 }
 
@@ -205,10 +316,14 @@ int cmd_calibrate(int argc, char **argv)
     if (o.device) {
         device_src d;
         wdr_cal_source src;
-        if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK) {
+        verify_ctx v = {.quantised = 1, .temporal = 1, .holds_with = "the board as it runs (its converters and noise)"};
+        wdr_cal_design design;
+        if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK &&
+            (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits); /* the board's operator is unknown here: basis-8 */
             cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */
-            rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model);
+            v.can_light = d.board.simulated, v.design = &design;
+            rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model, &v);
             if (rc == EX_OK && o.upload)
                 rc = upload_table(&d, &r);
         }
@@ -229,7 +344,12 @@ int cmd_calibrate(int argc, char **argv)
         cal_set_step(&b, &r.cfg);
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
-    rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model);
+    verify_ctx v = {.can_light = 1, .quantised = o.adc, .temporal = o.noise, .design = &c.design,
+                    .holds_with = o.adc && o.dac ? "simulated chip: ADC and DAC on, temporal noise off"
+                                                 : "simulated chip: converters (partly) off, temporal noise off"};
+    rc = verify_display(&o, &b, &v);
+    if (rc == EX_OK)
+        rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model, &v);
     cal_free_run(&r);
     cal_close_sim(&c);
     return rc;

@@ -1,5 +1,6 @@
 /* wdrctl tonemap: the scene tone-mapped in software, and a capture beside it. */
 #include "board.h"
+#include "file_io.h"
 #include "image_io.h"
 #include "operators.h"
 #include "ramp.h"
@@ -7,6 +8,7 @@
 #include "wdr_err.h"
 #include "wdr_scene.h"
 #include "wdrctl.h"
+#include <cJSON.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -15,6 +17,7 @@
 
 typedef struct tonemap_opts {
     const char *board, *scene, *op_name, *capture, *out, *side, *scene_image;
+    const char *nominal; /* calibration JSON whose nominal_response maps corrected codes to display */
     const char *params[16];
     int n_params;
     const char *exposure_text;
@@ -31,6 +34,8 @@ static const cli_option tonemap_rows[] = {
     {"scene-image", 0, CLI_STRING, O(scene_image), "HDR", "take L_avg, L_max, L_min from an HDR image"},
     {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A", "scene scale: auto (log-average to the ramp's key) or A per cd/m2"},
     {"capture", 0, CLI_STRING, O(capture), "CAP.pfm", "a capture of the scene (with --side-by-side)"},
+    {"nominal", 0, CLI_STRING, O(nominal), "CAL.json",
+     "corrected capture: map codes through this calibration's nominal response (calibrate --json)"},
     {"side-by-side", 0, CLI_STRING, O(side), "OUT.png", "the capture beside the software image (with --capture)"},
     {0}};
 #undef O
@@ -87,7 +92,52 @@ static void software_image(const wdr_board *b, const wdr_scene *sc, const wdr_op
         out[i] = wdr_display_to_u8(wdr_operator_eval(op, sc->amps[i] * b->lum_per_amp));
 }
 
-static int capture_image(const char *path, const wdr_board *b, int w, int h, uint8_t *out)
+/* The nominal response of `wdrctl calibrate --json` (field nominal_response: amps_A, codes). */
+typedef struct nominal_curve {
+    double ln_x[2048], code[2048];
+    wdr_response_curve c;
+} nominal_curve;
+
+static int read_number_array(const cJSON *a, double *v, int max, int *n)
+{
+    *n = 0;
+    const cJSON *e;
+    cJSON_ArrayForEach(e, a) {
+        if (!cJSON_IsNumber(e) || *n >= max)
+            return 0;
+        v[(*n)++] = e->valuedouble;
+    }
+    return 1;
+}
+
+static int load_nominal(const char *path, nominal_curve *nc)
+{
+    uint8_t *text;
+    size_t len;
+    int na = 0, nk = 0, ok = 0;
+    if (wdr_read_file(path, &text, &len) != WDR_OK)
+        return wdrctl_fail(EX_NOINPUT, "%s: cannot read the calibration summary", path);
+    cJSON *j = cJSON_ParseWithLength((const char *)text, len);
+    const cJSON *nom = cJSON_GetObjectItemCaseSensitive(j, "nominal_response");
+    if (nom && read_number_array(cJSON_GetObjectItemCaseSensitive(nom, "amps_A"), nc->ln_x, 2048, &na) &&
+        read_number_array(cJSON_GetObjectItemCaseSensitive(nom, "codes"), nc->code, 2048, &nk) && na == nk && na >= 2) {
+        ok = 1;
+        for (int k = 0; k < na; k++) {
+            ok &= nc->ln_x[k] > 0 && isfinite(nc->code[k]) && (k == 0 || nc->code[k] < nc->code[k - 1]);
+            nc->ln_x[k] = log(nc->ln_x[k]);
+        }
+    }
+    cJSON_Delete(j);
+    free(text);
+    if (!ok)
+        return wdrctl_fail(EX_DATAERR, "%s: field 'nominal_response': needs amps_A and codes of equal length (>= 2), "
+                           "amps > 0 rising, codes falling (the output of 'wdrctl calibrate --json')", path);
+    nc->c = (wdr_response_curve){na, nc->ln_x, nc->code};
+    return EX_OK;
+}
+
+static int capture_image(const char *path, const wdr_board *b, int w, int h, const wdr_operator *op,
+                         const nominal_curve *nc, uint8_t *out)
 {
     char err[512];
     float *codes;
@@ -100,8 +150,9 @@ static int capture_image(const char *path, const wdr_board *b, int w, int h, uin
     }
     wdr_ideal_pixel px;
     wdr_ideal_pixel_init(b, &px);
-    for (long i = 0; i < (long)w * h; i++)
-        out[i] = wdr_display_to_u8(wdr_code_to_display(&px, b, codes[i]));
+    for (long i = 0; i < (long)w * h; i++) /* a corrected capture lies on the calibration's nominal response */
+        out[i] = wdr_display_to_u8(nc ? wdr_code_to_display_curve(&nc->c, op, b->lum_per_amp, codes[i])
+                                      : wdr_code_to_display(&px, b, codes[i]));
     free(codes);
     return EX_OK;
 }
@@ -142,10 +193,13 @@ int cmd_tonemap(int argc, char **argv)
     uint8_t *soft = malloc((size_t)n), *cap = o.capture ? malloc((size_t)n) : NULL;
     if (!soft || (o.capture && !cap))
         rc = wdrctl_fail(EX_OSERR, "out of memory");
+    static nominal_curve nc;
+    if (rc == EX_OK && o.nominal)
+        rc = load_nominal(o.nominal, &nc);
     if (rc == EX_OK) {
         software_image(&b, &sc, &op, soft);
         if (o.capture)
-            rc = capture_image(o.capture, &b, sc.width, sc.height, cap);
+            rc = capture_image(o.capture, &b, sc.width, sc.height, &op, o.nominal ? &nc : NULL, cap);
     }
     if (rc == EX_OK)
         rc = write_outputs(&o, sc.width, sc.height, soft, cap);

@@ -1,9 +1,12 @@
 /* Accuracy vs time for calibration: per model, the fit time per megapixel and the residual
- * contrast error it leaves (worst over 31 currents, 1e-14..1e-8 A, on the simulator with default
- * mismatch, static effects on, temporal noise off, no DAC/ADC quantisation); and for the
- * N-current spline, how the number of calibration currents trades frames for accuracy.
- * Prints tables; asserts nothing about speed. --quick uses a small chip. */
+ * contrast error it leaves (worst over 31 currents, 1e-14..1e-8 A, 100 sd of ln(x_hat/x) by
+ * host/cal/cal_metrics.h as wdrctl fpn report, on the simulator with default mismatch, static
+ * effects on, temporal noise off), analog (no DAC/ADC quantisation) and with the 12-bit converters
+ * beside the model's floor; and for the N-current spline (analog), how the number of calibration
+ * currents trades frames for accuracy. Prints tables; asserts nothing about speed. --quick uses a
+ * small chip. */
 #include "bench_util.h"
+#include "cal_design.h"
 #include "cal_select.h"
 #include "wdr_err.h"
 #include <math.h>
@@ -18,20 +21,26 @@ typedef struct setup {
     wdr_cal_simsrc ss;
     wdr_cal_source src;
     wdr_cal_levels grid;
+    wdr_cal_design design;
+    int quantised;
 } setup;
 
-static int open_chip(setup *s, int w, int h, const char *op)
+static int open_chip_q(setup *s, int w, int h, const char *op, int quantised)
 {
     wdr_board b;
     char err[512];
     wdr_board_defaults(&b);
     b.width = (uint16_t)w, b.height = (uint16_t)h;
-    if (wdr_cal_sim_setup(&b, op, 3, 0, 0.06, &s->sim, &s->lut, err, sizeof err)) {
+    s->quantised = quantised;
+    if (wdr_cal_sim_setup(&b, op, 3, quantised, 0.06, &s->sim, &s->lut, err, sizeof err) ||
+        wdr_cal_design_init(&s->design, &b, op, wdr_sim_integration_time(s->sim), h / 2 * b.row_time_s, 1, err,
+                            sizeof err)) {
         fprintf(stderr, "bench_cal: %s\n", err);
         return 1;
     }
-    wdr_sim_set_effect(s->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
-    s->ss = (wdr_cal_simsrc){s->sim, 0, 77};
+    if (!quantised)
+        wdr_sim_set_effect(s->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
+    s->ss = (wdr_cal_simsrc){s->sim, quantised, 77};
     s->src = (wdr_cal_source){w, h, wdr_cal_sim_capture, &s->ss};
     double amps[37];
     for (int k = 0; k < 37; k++)
@@ -43,6 +52,8 @@ static int open_chip(setup *s, int w, int h, const char *op)
     return 0;
 }
 
+static int open_chip(setup *s, int w, int h, const char *op) { return open_chip_q(s, w, h, op, 0); }
+
 static void close_chip(setup *s)
 {
     wdr_cal_levels_free(&s->grid);
@@ -52,6 +63,7 @@ static void close_chip(setup *s)
 
 typedef struct result {
     double fit_s_per_mp, table_s_per_mp, worst_model, worst_table;
+    double table_pct[31], floor_pct[31]; /* per judging current */
     double worst_poly; /* a BASIS run: the poly-5 table from the same fit */
     long bad;
 } result;
@@ -75,6 +87,26 @@ static double other_form_worst(const wdr_cal_result *res, const wdr_cal_source *
             worst = fmax(worst, t[k].sd_pct);
     free(tb);
     return worst;
+}
+
+/* Model and table contrast error at the judging currents, by wdr_eval_point_measure (one frame:
+ * temporal noise is off), with the quantisation floor when the chip is quantised. */
+static void worst_of(const wdr_cal_result *res, const wdr_cal_view *tab, setup *acc, const double *x, double *table_pct,
+                     double *floor_pct, double *worst_model, double *worst_table)
+{
+    wdr_eval_opts eo = {.frames = 1, .quantised = acc->quantised, .design = &acc->design};
+    *worst_model = *worst_table = 0;
+    for (int k = 0; k < 31; k++) {
+        wdr_eval_point p;
+        eo.first_frame_no = 1000 + k;
+        if (wdr_eval_point_measure(res, tab, &acc->src, x[k], &eo, &p)) {
+            *worst_model = *worst_table = NAN;
+            return;
+        }
+        table_pct[k] = p.table.sd_pct, floor_pct[k] = p.floor_pct;
+        *worst_model = fmax(*worst_model, p.model.sd_pct);
+        *worst_table = fmax(*worst_table, p.table.sd_pct);
+    }
 }
 
 /* Fit on the timing chip, judge contrast on the accuracy chip (same currents). */
@@ -109,15 +141,9 @@ static int run(setup *timing, setup *acc, wdr_cal_config *cfg, const wdr_cal_cho
         wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err) || wdr_cal_parse(tb, tl, &tab))
         return 1;
     double x[31];
-    wdr_fpn_stats m[31], t[31];
     for (int k = 0; k < 31; k++)
         x[k] = cfg->range_lo * pow(cfg->range_hi / cfg->range_lo, (k + 0.37) / 31);
-    wdr_cal_evaluate(&res, &tab, &acc->src, x, 31, NULL, m, t);
-    r->worst_model = r->worst_table = 0;
-    for (int k = 0; k < 31; k++) {
-        r->worst_model = fmax(r->worst_model, m[k].sd_pct);
-        r->worst_table = fmax(r->worst_table, t[k].sd_pct);
-    }
+    worst_of(&res, &tab, acc, x, r->table_pct, r->floor_pct, &r->worst_model, &r->worst_table);
     r->bad = res.n_bad;
     r->worst_poly = cfg->form == WDR_FORM_BASIS ? other_form_worst(&res, &acc->src, x, WDR_FORM_POLY, 5) : NAN;
     lv.dark = NULL;
@@ -145,30 +171,47 @@ int main(int argc, char **argv)
 {
     int quick = argc > 1 && !strcmp(argv[1], "--quick");
     int tw = quick ? 64 : 320, th = quick ? 48 : 240;
-    setup timing, acc;
+    setup timing, acc, acc12;
     char err[512];
-    if (open_chip(&acc, 64, 48, "reinhard") || open_chip(&timing, tw, th, "reinhard"))
+    if (open_chip(&acc, 64, 48, "reinhard") || open_chip(&timing, tw, th, "reinhard") ||
+        open_chip_q(&acc12, 64, 48, "reinhard", 1))
         return 1;
-    printf("Calibration accuracy vs time (Reinhard, simulator, ADC/DAC quantisation off)\n");
-    printf("fit timed on %dx%d, contrast judged on 64x48 at 31 currents 1e-14..1e-8 A\n\n", tw, th);
-    printf("%-42s %8s %12s %12s %12s %12s %6s\n", "model", "frames", "fit s/MP", "table s/MP", "model err%",
-           "table err%", "bad");
+    printf("Calibration accuracy vs time (Reinhard, simulator, temporal noise off)\n");
+    printf("fit timed on %dx%d (analog), contrast judged on 64x48 at 31 currents 1e-14..1e-8 A: analog (ADC and DAC\n"
+           "quantisation off) and with the 12-bit ADC and DAC; 'x floor' is the 12-bit worst over the model's floor,\n"
+           "sqrt(analog^2 + quantisation floor^2) at each current\n\n", tw, th);
+    printf("%-42s %6s %10s %10s %11s %11s %11s %8s %5s\n", "model", "frames", "fit s/MP", "table s/MP", "model err%",
+           "table err%", "12-bit err%", "x floor", "bad");
     for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
-        wdr_cal_config cfg;
-        wdr_cal_choice ch;
-        result r;
+        wdr_cal_config cfg, cfg12;
+        wdr_cal_choice ch, ch12;
+        result r, r12;
         wdr_cal_config_defaults(&cfg, rows[i].model);
         cfg.form = rows[i].form, cfg.n_coeffs = rows[i].n_coeffs;
-        cfg.range_lo = 1e-14, cfg.range_hi = 1e-8, cfg.tie_codes = 1e-3;
-        if (wdr_cal_select_currents(&acc.grid, &cfg, rows[i].n_currents, 1e-14, 1e-8, 64, &ch, err, sizeof err) ||
-            run(&timing, &acc, &cfg, &ch, &r)) {
+        cfg.range_lo = 1e-14, cfg.range_hi = 1e-8;
+        cfg12 = cfg;
+        cfg.tie_codes = 1e-3, cfg.design = &acc.design, cfg12.design = &acc12.design;
+        /* --quick (CI) skips the slow global fits at 12 bits: their selection refits LSQ per candidate */
+        int skip12 = quick && (rows[i].model == WDR_MODEL_LSQ || rows[i].model == WDR_MODEL_POLYMAP);
+        if (wdr_cal_select_currents(&acc.grid, &cfg, rows[i].n_currents, 1e-14, 1e-8, 256, &ch, err, sizeof err) ||
+            run(&timing, &acc, &cfg, &ch, &r) ||
+            (!skip12 && (wdr_cal_select_currents(&acc12.grid, &cfg12, rows[i].n_currents, 1e-14, 1e-8, 256, &ch12,
+                                                 err, sizeof err) ||
+                         run(&acc12, &acc12, &cfg12, &ch12, &r12)))) {
             fprintf(stderr, "bench_cal: %s: %s\n", rows[i].name, err);
             return 1;
         }
-        printf("%-42s %8d %12.3f %12.3f %12.4f %12.4f %6ld\n", rows[i].name, ch.n, r.fit_s_per_mp,
-               r.table_s_per_mp, r.worst_model, r.worst_table, r.bad);
+        double ratio = NAN;
+        if (skip12)
+            r12.worst_table = NAN;
+        for (int k = 0; !skip12 && k < 31; k++)
+            ratio = fmax(k ? ratio : 0, r12.table_pct[k] / hypot(r.table_pct[k], r12.floor_pct[k]));
+        printf("%-42s %6d %10.3f %10.3f %11.4f %11.4f %11.3f %8.2f %5ld\n", rows[i].name, ch.n, r.fit_s_per_mp,
+               r.table_s_per_mp, r.worst_model, r.worst_table, r12.worst_table, ratio, r.bad);
     }
-    printf("\nNumber of calibration currents (spline model): frames to capture vs residual error\n");
+    close_chip(&acc12);
+    printf("\nNumber of calibration currents (spline model, analog: converters and temporal noise off):\n"
+           "frames to capture vs residual error\n");
     printf("%8s %12s %12s %12s\n", "currents", "fit s/MP", "model err%", "poly-5 err%");
     static const int counts[] = {5, 7, 10, 13, 19, 25};
     for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++) {
@@ -183,7 +226,7 @@ int main(int argc, char **argv)
             return 1;
         printf("%8d %12.3f %12.4f %12.4f\n", counts[i], r.fit_s_per_mp, r.worst_model, r.worst_table);
     }
-    printf("\nEvery operator (spline, 19 currents over the operator's informative range, 64x48):\n"
+    printf("\nEvery operator (spline, 19 currents over the operator's informative range, 64x48, analog):\n"
            "the default basis-8 table and a poly-5 table from the same fit\n");
     printf("%-18s %22s %12s %12s %12s %6s\n", "operator", "range (A)", "model err%", "basis-8 err%", "poly-5 err%",
            "bad");

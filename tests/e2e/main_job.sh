@@ -14,7 +14,7 @@ export WDR_DEVICE="sim:$dir/b.sock"
 "$wdrctl" info --wait 10000 >/dev/null
 "$wdrctl" lut build --operator reinhard -o "$dir/r.lut"
 "$wdrctl" lut upload "$dir/r.lut"
-"$wdrctl" calibrate --lut "$dir/r.lut" --upload -o "$dir/cal.bin" --frames 1
+"$wdrctl" calibrate --lut "$dir/r.lut" --upload -o "$dir/cal.bin" --frames 1 --json >"$dir/cal.json"
 kill $pid; wait $pid 2>/dev/null || true
 "$simboard" --board "$src/boards/sim-vga/board.json" --scene "$src/sim/scenes/window.json" \
     --socket "$dir/b.sock" --flash "$dir/flash.bin" &
@@ -23,5 +23,5 @@ pid=$!
 "$wdrctl" status | grep -i "cal" 
 "$wdrctl" capture -o "$dir/cap.pfm"
 "$wdrctl" tonemap --board "$src/boards/sim-vga/board.json" --scene "$src/sim/scenes/window.json" \
-    -o "$dir/soft.png" --capture "$dir/cap.pfm" --side-by-side "$dir/sbs.png"
+    -o "$dir/soft.png" --capture "$dir/cap.pfm" --nominal "$dir/cal.json" --side-by-side "$dir/sbs.png"
 echo "main job: ok"
