@@ -515,7 +515,10 @@ static void patch_f32(const uint8_t *f, int w, float *out)
 
 static int row_ok(const wdr_cal_view *cal, int row, const void *raw, const void *out)
 {
+    /* n_coeffs sizes the kernels' coefficient arrays: a view not made by wdr_cal_parse (a
+     * firmware's own, a fuzzed one) must still have a count its form allows. */
     return cal && raw && out && row >= 0 && row < cal->h.height &&
+           wdr_cal_form_coeffs_ok(cal->h.form, cal->h.n_coeffs) &&
            (cal->h.form == WDR_FORM_IDENTITY || cal->payload) &&
            (cal->h.form != WDR_FORM_BASIS || (cal->shared && cal->h.shared_points >= 2));
 }
