@@ -1,8 +1,10 @@
 #include "hdr_image.h"
 #include "image_io.h"
 #include "wdr_err.h"
+#include "file_io.h"
+#include "radiance.h"
+#include <errno.h>
 #include <openexr.h>
-#include <stb_image.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -12,20 +14,26 @@ static float luminance(float r, float g, float b) { return 0.2126f * r + 0.7152f
 
 /* ---- Radiance .hdr ---- */
 
+/* Our own bounded reader (radiance.h), not stb_image: Debian 12's 2.27 hangs on a crafted run. */
 static int load_radiance(const char *path, float **lum, int *w, int *h, char *err, int errlen)
 {
-    int n;
-    float *rgb = stbi_loadf(path, w, h, &n, 3);
-    if (!rgb) {
-        snprintf(err, (size_t)errlen, "%s: not a readable Radiance image (%s)", path, stbi_failure_reason());
-        return WDR_E_INVAL;
+    uint8_t *buf;
+    size_t len;
+    if (wdr_read_file(path, &buf, &len)) {
+        snprintf(err, (size_t)errlen, "%s: cannot read image: %s", path, strerror(errno));
+        return WDR_E_IO;
     }
-    long count = (long)*w * *h;
-    *lum = malloc((size_t)count * sizeof **lum);
+    float *rgb;
+    int rc = wdr_radiance_decode(buf, len, path, &rgb, w, h, err, errlen);
+    free(buf);
+    if (rc)
+        return rc;
+    size_t count = (size_t)*w * (size_t)*h;
+    *lum = malloc(count * sizeof **lum);
     if (*lum)
-        for (long i = 0; i < count; i++)
+        for (size_t i = 0; i < count; i++)
             (*lum)[i] = luminance(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
-    stbi_image_free(rgb);
+    free(rgb);
     return *lum ? WDR_OK : WDR_E_NOMEM;
 }
 
@@ -164,6 +172,32 @@ static int exr_to_luminance(exr_image *im, float **lum)
     return WDR_OK;
 }
 
+/* The data window in 64 bits (max - min + 1 overflows int for a hostile box), within
+ * WDR_IMAGE_MAX_PIXELS, and no taller than the chunks the file's offset table can list (8 bytes
+ * each): all before the planes are allocated. */
+static int exr_size(exr_image *im, const char *path, char *err, int errlen)
+{
+    int64_t w = (int64_t)im->dw.max.x - im->dw.min.x + 1, h = (int64_t)im->dw.max.y - im->dw.min.y + 1;
+    int32_t chunks = 0;
+    FILE *f = fopen(path, "rb");
+    long size = f && fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+    if (f)
+        fclose(f);
+    if (w < 1 || h < 1 || (uint64_t)w * (uint64_t)h > WDR_IMAGE_MAX_PIXELS) {
+        snprintf(err, (size_t)errlen, "%s: OpenEXR data window: %lld x %lld is not 1 to %u pixels", path,
+                 (long long)w, (long long)h, WDR_IMAGE_MAX_PIXELS);
+        return WDR_E_INVAL;
+    }
+    if (exr_get_chunk_count(im->ctx, 0, &chunks) || chunks < 1 || size < 0 || (int64_t)chunks * 8 > size) {
+        snprintf(err, (size_t)errlen, "%s: OpenEXR data window: %lld x %lld needs %d chunks, more than %ld bytes hold",
+                 path, (long long)w, (long long)h, chunks, size);
+        return WDR_E_INVAL;
+    }
+    im->w = (int)w;
+    im->h = (int)h;
+    return WDR_OK;
+}
+
 static int load_exr(const char *path, float **lum, int *w, int *h, char *err, int errlen)
 {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
@@ -174,10 +208,10 @@ static int load_exr(const char *path, float **lum, int *w, int *h, char *err, in
         return exr_fail(path, "header", rc, err, errlen);
     int result = (rc = exr_get_data_window(im.ctx, 0, &im.dw)) ? exr_fail(path, "data window", rc, err, errlen)
                                                                 : pick_channels(&im, path, err, errlen);
+    if (!result)
+        result = exr_size(&im, path, err, errlen);
     if (!result) {
-        im.w = im.dw.max.x - im.dw.min.x + 1;
-        im.h = im.dw.max.y - im.dw.min.y + 1;
-        im.planes = im.w > 0 && im.h > 0 ? calloc((size_t)3 * im.w * im.h, sizeof(float)) : NULL;
+        im.planes = calloc((size_t)3 * im.w * im.h, sizeof(float));
         result = im.planes ? read_pixels(&im, path, err, errlen) : WDR_E_NOMEM;
     }
     if (!result)

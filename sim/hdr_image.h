@@ -1,5 +1,5 @@
 /* HDR images in, one luminance value per pixel out: OpenEXR (C API, RGB(A) or Y, half or
- * float, scanline or tiled), Radiance .hdr (stb_image) and PFM (image_io.h).
+ * float, scanline or tiled), Radiance .hdr (radiance.h) and PFM (image_io.h).
  * Luminance is Y = 0.2126 R + 0.7152 G + 0.0722 B (Rec. 709 primaries, linear values). */
 #ifndef WDR_HDR_IMAGE_H
 #define WDR_HDR_IMAGE_H
