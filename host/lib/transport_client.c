@@ -162,6 +162,37 @@ int wdr_client_request(wdr_client *c, uint8_t opcode, const void *payload, uint3
 
 /* ---- Connect, status, illuminant ------------------------------------------------------------ */
 
+/* Every INFO field later code sizes or shifts with, checked once here: a hostile or broken
+ * board's adc_bits of 40 was an undefined shift, a 0x0 sensor a 0x0 image written with exit 0. */
+static int info_check(wdr_client *c)
+{
+    const wdr_info *i = &c->info;
+    const struct { const char *name; unsigned value, lo, hi; } f[] = {
+        {"width", i->width, 1, 65535},
+        {"height", i->height, 1, 65535},
+        {"adc_bits", i->adc_bits, 1, 16},
+        {"dac_bits", i->dac_bits, 1, 16},
+    };
+    for (size_t k = 0; k < sizeof f / sizeof f[0]; k++)
+        if (f[k].value < f[k].lo || f[k].value > f[k].hi) {
+            char what[160];
+            snprintf(what, sizeof what, "INFO answer: field '%s' is %u, not %u..%u", f[k].name, f[k].value, f[k].lo,
+                     f[k].hi);
+            return fail(c, WDR_E_PROTOCOL, what);
+        }
+    return WDR_OK;
+}
+
+/* A connection the board never answers: it serves one host at a time, so the likeliest reason
+ * is another host holding it. Say so instead of only "no answer". */
+static int connect_timed_out(wdr_client *c)
+{
+    char what[224];
+    snprintf(what, sizeof what, "no answer to INFO after %d attempt(s) of %d ms: another host may hold the board "
+             "(it serves one host at a time), or it is not running", c->retries + 1, c->timeout_ms);
+    return fail(c, WDR_E_TIMEOUT, what);
+}
+
 int wdr_client_connect(wdr_client *c, wdr_transport *t)
 {
     wdr_event_fn keep_fn = c->on_event;
@@ -182,6 +213,8 @@ int wdr_client_connect(wdr_client *c, wdr_transport *t)
     wdr_put_u16(ver, WDR_PROTO_VERSION_MAJOR);
     wdr_put_u16(ver + 2, WDR_PROTO_VERSION_MINOR);
     int rc = wdr_client_request(c, WDR_CMD_INFO, ver, sizeof ver);
+    if (rc == WDR_E_TIMEOUT)
+        return connect_timed_out(c);
     if (rc != WDR_OK && !(rc == WDR_E_STATUS && c->status == WDR_ST_BAD_VERSION))
         return rc;
     if (wdr_info_unpack(c->reply, c->reply_len, &c->info) != WDR_OK)
@@ -192,7 +225,7 @@ int wdr_client_connect(wdr_client *c, wdr_transport *t)
                  c->info.proto_minor, WDR_PROTO_VERSION_MAJOR, WDR_PROTO_VERSION_MINOR);
         return fail(c, WDR_E_VERSION, what);
     }
-    return WDR_OK;
+    return info_check(c);
 }
 
 int wdr_client_status(wdr_client *c, wdr_status_report *out)
@@ -412,8 +445,10 @@ int wdr_client_stream(wdr_client *c, uint16_t *codes, wdr_frame_fn on_frame, voi
     capture_ctx k = {.frame.codes = codes, .frames_wanted = UINT32_MAX, .on_frame = on_frame, .ctx = ctx};
     uint8_t on = 1, off = 0;
     int rc = run_capture(c, &k, WDR_CMD_STREAM, &on, 1, stop);
-    if (rc == WDR_E_IO)
+    if (rc == WDR_E_IO) {
+        c->on_event = NULL; /* k dies with this frame: a later request must not call into it */
         return rc;
+    }
     k.stopping = 1; /* rows still in flight belong to a frame nobody wants */
     int rc_off = wdr_client_request(c, WDR_CMD_STREAM, &off, 1);
     c->on_event = NULL;
