@@ -374,6 +374,8 @@ int cmd_lut_build(int argc, char **argv)
         rc = wdrctl_fail(EX_USAGE, "lut build needs -o LUT.bin");
     if (rc == EX_OK)
         rc = load_board(o.board, &b);
+    if (rc == EX_OK && o.dac_bits && (o.dac_bits < 4 || o.dac_bits > 16))
+        rc = wdrctl_fail(EX_USAGE, "option --dac-bits: %d is not 4..16", o.dac_bits);
     if (rc == EX_OK && o.dac_bits)
         b.dac_bits = o.dac_bits;
     if (rc == EX_OK)
