@@ -2,7 +2,8 @@
 # Debian 12 packages the project needs. As root, installs what is missing; otherwise prints
 # the exact apt-get line and fails. Sourced by .ci/demo and .ci/test.
 WDR_PACKAGES="build-essential cmake pkg-config libcjson-dev libpng-dev libstb-dev libopenexr-dev \
-libcmocka-dev libusb-1.0-0-dev libgpiod-dev gnuplot-nox gcc-arm-none-eabi libnewlib-arm-none-eabi"
+libcmocka-dev libusb-1.0-0-dev libgpiod-dev gnuplot-nox gcc-arm-none-eabi libnewlib-arm-none-eabi \
+clang-14 libclang-rt-14-dev"
 
 wdr_missing_packages() {
     for p in $WDR_PACKAGES; do
