@@ -9,6 +9,7 @@
 #include "hal.h"
 #include "hal_sim_emul.h"
 #include "simboard_loop.h"
+#include "wdr_fw_config.h"
 #include "wdr_err.h"
 #include "wdr_scene.h"
 #include "wdr_sim.h"
@@ -121,7 +122,7 @@ static int start_board(const simboard_opts *o, wdr_board *b)
     if (rc != WDR_OK) {
         fprintf(stderr, "wdr-simboard: %s\n", err);
         wdr_scene_free(&scene);
-        return rc == WDR_E_IO ? EX_CANTCREAT : EX_USAGE;
+        return rc == WDR_E_IO ? EX_CANTCREAT : rc == WDR_E_GEOMETRY ? EX_DATAERR : EX_USAGE;
     }
     rc = wdr_scene_apply(&scene, hal_sim_sensor());
     if (rc != WDR_OK)
@@ -150,6 +151,10 @@ int main(int argc, char **argv)
         hal_sim_teardown();
         return rc;
     }
+    if (b.width > WDR_FW_MAX_WIDTH) /* it serves INFO and STATUS; uploads and captures say UNSUPPORTED */
+        fprintf(stderr, "wdr-simboard: warning: %s is %u pixels wide; the firmware reads at most %u pixels per row "
+                "(WDR_FW_MAX_WIDTH): it will answer INFO and STATUS and refuse tables and captures\n", o.board,
+                b.width, WDR_FW_MAX_WIDTH);
     hal_sim_set_exit_on_disconnect(o.once);
     watch_parent_pipe();
     fprintf(stderr, "wdr-simboard: %s %ux%u serving wdrctl --device sim:%s (SIGTERM or Ctrl-C stops)\n", b.name,

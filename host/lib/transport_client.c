@@ -309,8 +309,11 @@ int wdr_client_upload(wdr_client *c, int kind, const uint8_t *table, size_t len,
     int rc = wdr_client_request(c, op, begin, sizeof begin);
     if (rc == WDR_OK)
         rc = upload_chunks(c, (uint8_t)(op + 1), table, len, progress, progress_ctx);
-    if (rc == WDR_OK)
+    c->commit_unknown = 0;
+    if (rc == WDR_OK) {
         rc = wdr_client_request(c, (uint8_t)(op + 2), NULL, 0);
+        c->commit_unknown = rc == WDR_E_IO || rc == WDR_E_TIMEOUT; /* sent, maybe done, no answer */
+    }
     if (rc == WDR_OK)
         return check_commit(c, crc, out);
     if (rc != WDR_E_IO)
@@ -426,18 +429,35 @@ static int run_capture(wdr_client *c, capture_ctx *k, uint8_t opcode, const uint
     return rc;
 }
 
-int wdr_client_capture(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx)
+static int capture(wdr_client *c, uint32_t n, int raw, uint16_t *codes, wdr_frame_fn on_frame, void *ctx)
 {
     if (n == 0 || n > 65535)
         return fail(c, WDR_E_INVAL, "frame count must be 1..65535");
+    if (raw && c->info.proto_minor < 1) {
+        char what[160];
+        snprintf(what, sizeof what, "board speaks protocol %u.%u: raw frames need 1.1 (update its firmware)",
+                 c->info.proto_major, c->info.proto_minor);
+        return fail(c, WDR_E_UNSUPPORTED, what);
+    }
     capture_ctx k = {.frame.codes = codes, .frames_wanted = n, .on_frame = on_frame, .ctx = ctx};
-    uint8_t arg[4];
+    uint8_t arg[5];
     wdr_put_u32(arg, n);
-    int rc = run_capture(c, &k, WDR_CMD_CAPTURE, arg, sizeof arg, NULL);
+    arg[4] = WDR_CAPTURE_RAW;
+    int rc = run_capture(c, &k, WDR_CMD_CAPTURE, arg, raw ? 5u : 4u, NULL);
     c->on_event = NULL;
     if (rc != WDR_OK && rc != WDR_E_IO)
         abort_quietly(c);
     return rc;
+}
+
+int wdr_client_capture(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx)
+{
+    return capture(c, n, 0, codes, on_frame, ctx);
+}
+
+int wdr_client_capture_raw(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx)
+{
+    return capture(c, n, 1, codes, on_frame, ctx);
 }
 
 int wdr_client_stream(wdr_client *c, uint16_t *codes, wdr_frame_fn on_frame, void *ctx, volatile int *stop)

@@ -96,8 +96,10 @@ int cal_parse_options(int argc, char **argv, const char *cmd, cal_opts *o)
     }
     if (optind < argc)
         return wdrctl_fail(EX_USAGE, "%s: unexpected argument '%s'", cmd, argv[optind]);
-    const char *env = getenv("WDR_DEVICE"); /* as the other board commands: a board when one is named */
-    if (!o->device && env && *env)
+    /* As the other board commands: a board when one is named; but --board names the simulator
+     * to calibrate, and then $WDR_DEVICE must not send the run (and its uploads) to a board. */
+    const char *env = getenv("WDR_DEVICE");
+    if (!o->device && !o->board && env && *env)
         o->device = env;
     return EX_OK;
 }
