@@ -28,8 +28,7 @@ typedef struct hal_sim_config {
 
 /* Build the board: sensor chip, flash, socket. Call before hal_init; again only after
  * hal_sim_teardown. err names the file or path at fault.
- * @retval WDR_OK, WDR_E_INVAL (bad geometry or path), WDR_E_IO (socket or flash file),
- *         WDR_E_GEOMETRY (a flash file of another size than this board's flash), WDR_E_NOMEM */
+ * @retval WDR_OK, WDR_E_INVAL (bad geometry or path), WDR_E_IO (socket or flash file), WDR_E_NOMEM */
 int hal_sim_setup(const hal_sim_config *cfg, char *err, int errlen);
 
 /* Release everything hal_sim_setup made (unlinks the socket path). */

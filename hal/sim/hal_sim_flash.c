@@ -40,7 +40,7 @@ static int load_file(const char *path, char *err, int errlen)
     if ((size_t)st.st_size != size || pread(F.fd, F.bytes, size, 0) != (ssize_t)size) {
         snprintf(err, (size_t)errlen, "flash file %s: has %lld bytes, this board's flash has %zu", path,
                  (long long)st.st_size, size);
-        return WDR_E_GEOMETRY; /* the file's data is at fault, not how the program was called */
+        return WDR_E_INVAL;
     }
     nor_emul_derive_programmed(&F.nor); /* files carry no flags */
     return WDR_OK;
