@@ -56,7 +56,7 @@ void fz_board_reboot(wdr_fw *fw)
 void fz_board_send_raw(wdr_fw *fw, const uint8_t *bytes, size_t n)
 {
     fb_host_write(bytes, n);
-    fz_board_run(fw, 20000);
+    fz_board_run(fw, 4000); /* a one-frame capture takes a few hundred steps; a stream never ends */
 }
 
 int fz_board_request(wdr_fw *fw, uint8_t op, const uint8_t *payload, uint32_t len)

@@ -14,7 +14,7 @@ status=0
 for t in $targets; do
   work=$build/fuzz-corpus/$t log=$build/fuzz-artifacts/$t.log
   mkdir -p "$work"
-  if ! "$build/tests/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+  if ! "$build/tests/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=25 -rss_limit_mb=2048 \
       -malloc_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$build/fuzz-artifacts/$t-" \
       "$work" "$here/corpus/$t" >"$log" 2>&1; then
     echo "fuzz_$t: FAULT (log $log):"; grep -E "ERROR|SUMMARY|Test unit written" "$log" | head -5
