@@ -1,6 +1,6 @@
 #!/bin/sh
 # Fuzz every target (or those named) for SECONDS each, one after the other, starting from the
-# committed seeds; fails on the first crash, leak, timeout (10 s per input) or out-of-memory
+# committed seeds; fails on the first crash, leak, timeout (25 s of wall time per input) or out-of-memory
 # (2 GiB). New inputs go to BUILD/fuzz-corpus/<target>, faults to BUILD/fuzz-artifacts/.
 # Prints one line per target: executions, coverage (edges) and features, corpus size.
 # usage: tests/fuzz/run_fuzz.sh BUILD_DIR SECONDS [TARGET ...]   (BUILD_DIR from preset fuzz)
