@@ -291,7 +291,8 @@ static int header_check(const wdr_cal_header *h)
         return WDR_E_INVAL;
     if (h->model >= WDR_MODEL_COUNT || h->reserved || h->out_max == 0 || h->raw_max == 0)
         return WDR_E_INVAL;
-    if (h->form == WDR_FORM_BASIS ? h->shared_points < 2 || h->shared_points * h->n_coeffs > WDR_CAL_MAX_SHARED_FLOATS
+    /* Products in 64 bits: shared_points comes from outside, and 0x40000001 * 4 wraps to 4 in u32. */
+    if (h->form == WDR_FORM_BASIS ? h->shared_points < 2 || (uint64_t)h->shared_points * h->n_coeffs > WDR_CAL_MAX_SHARED_FLOATS
         : h->form == WDR_FORM_COMPACT
             ? h->shared_points < 2 ||
                   (uint64_t)h->shared_points * WDR_CAL_COMPACT_COEFFS > WDR_CAL_MAX_SHARED_FLOATS
@@ -301,8 +302,9 @@ static int header_check(const wdr_cal_header *h)
         return WDR_E_INVAL;
     if (!finite_f(h->out_scale) || !(h->out_scale > 0.0f))
         return WDR_E_INVAL;
+    /* height * row_stride reaches 8.8e9 for a 4096 x 65535 basis-8 table: compare in 64 bits. */
     if (h->payload_len !=
-        wdr_cal_shared_bytes(h) + (uint32_t)h->height * wdr_cal_form_row_stride(h->form, h->width, h->n_coeffs))
+        wdr_cal_shared_bytes(h) + (uint64_t)h->height * wdr_cal_form_row_stride(h->form, h->width, h->n_coeffs))
         return WDR_E_INVAL;
     return WDR_OK;
 }

@@ -218,20 +218,28 @@ static void cmd_set_exposure(wdr_fw *fw, const wdr_packet *pkt)
     reply_status(fw, pkt, st);
 }
 
+/* u32 frames, then (protocol 1.3) an optional u8 of WDR_CAPTURE_* flags. */
 static void cmd_capture(wdr_fw *fw, const wdr_packet *pkt)
 {
-    int st = pkt->h.length == 4 ? WDR_ST_OK : WDR_ST_BAD_LENGTH;
+    int st = pkt->h.length == 4 || pkt->h.length == 5 ? WDR_ST_OK : WDR_ST_BAD_LENGTH;
     uint32_t n = st ? 0 : wdr_get_u32(pkt->payload);
-    if (!st && (n == 0 || n > 65535u))
+    uint8_t flags = !st && pkt->h.length == 5 ? pkt->payload[4] : 0;
+    if (!st && (n == 0 || n > 65535u || (flags & ~WDR_CAPTURE_RAW)))
         st = WDR_ST_BAD_ARG;
-    if (!st)
+    if (!st && wdr_fw_busy(fw))
+        st = WDR_ST_BUSY; /* the running frames keep their own form */
+    if (!st) {
+        fw->raw_frames = (flags & WDR_CAPTURE_RAW) != 0;
         st = wdr_status_from_err(wdr_fw_frame_start(fw, n, false, pkt->h.seq));
+    }
     reply_status(fw, pkt, st);
 }
 
 static void cmd_stream(wdr_fw *fw, const wdr_packet *pkt)
 {
     int st = pkt->h.length == 1 && pkt->payload[0] <= 1 ? WDR_ST_OK : WDR_ST_BAD_LENGTH;
+    if (!st && pkt->payload[0] && !wdr_fw_busy(fw))
+        fw->raw_frames = false;
     if (!st && pkt->payload[0])
         st = wdr_status_from_err(wdr_fw_frame_start(fw, 0, true, pkt->h.seq));
     else if (!st)

@@ -109,7 +109,18 @@ static int read_row(wdr_fw *fw)
     if (!err)
         err = hal_adc_read_row(fw->raw, fw->board.width);
     hal_row_deselect();
-    return err ? err : wdr_fw_load_cal_row(fw, fw->row);
+    return err || fw->raw_frames ? err : wdr_fw_load_cal_row(fw, fw->row);
+}
+
+/* The table a row goes through: the active one, or for a raw capture the identity. */
+static const wdr_cal_view *row_table(const wdr_fw *fw, wdr_cal_view *identity)
+{
+    if (!fw->raw_frames)
+        return &fw->cal;
+    uint16_t top = (uint16_t)((1u << fw->board.adc_bits) - 1u);
+    if (wdr_cal_identity(identity, fw->board.sensor_id, fw->board.width, fw->board.height, 1.0f, top, top))
+        return &fw->cal; /* not reached: wdr_fw_init refused such a board */
+    return identity;
 }
 
 /* One row: ADC, correction in place in the outgoing frame, send. */
@@ -118,8 +129,10 @@ static int step_row(wdr_fw *fw)
     uint8_t *frame = wdr_fw_tx_reserve(fw);
     uint32_t len;
     int err = read_row(fw);
+    wdr_cal_view identity;
+    int corrected = fw->cal_slot >= 0 && !fw->raw_frames;
     if (!err)
-        err = wdr_readout_row(&fw->cal, fw->cal_slot >= 0 ? fw->cal_row : NULL, fw->row, fw->frame_no,
+        err = wdr_readout_row(row_table(fw, &identity), corrected ? fw->cal_row : NULL, fw->row, fw->frame_no,
                               fw->capture_seq, fw->raw, frame, &len);
     if (err) {
         fw->frame_end_due = true; /* FRAME_END reports the rows that made it */
@@ -138,7 +151,7 @@ static int step_frame_end(wdr_fw *fw)
 {
     uint8_t *pl = wdr_fw_tx_reserve(fw) + WDR_PROTO_HEADER_SIZE;
     int complete = fw->row == fw->board.height;
-    wdr_frame_end fe = {fw->frame_no, fw->row, (uint16_t)((fw->cal_slot >= 0) | (!complete << 1)),
+    wdr_frame_end fe = {fw->frame_no, fw->row, (uint16_t)((fw->cal_slot >= 0 && !fw->raw_frames) | (!complete << 1)),
                         ticks_to_ns(&fw->play, fw->play.h.t_integration_ticks), fw->t_start};
     wdr_frame_end_pack(&fe, pl);
     wdr_proto_header h = {WDR_CMD_FRAME_END, WDR_FLAG_EVENT, fw->capture_seq, 0, 0, 0};

@@ -51,6 +51,7 @@ typedef struct wdr_fw {
     uint8_t state;                /* enum wdr_fw_state */
     uint32_t frames_left;         /* of the current CAPTURE */
     bool streaming;
+    bool raw_frames;              /* this capture skips the calibration table (WDR_CAPTURE_RAW) */
     uint16_t capture_seq;
     uint32_t frame_no;            /* frames completed since boot */
     uint16_t row;                 /* next row to read */

@@ -12,7 +12,8 @@
 #include <stdint.h>
 
 #define WDR_PROTO_VERSION_MAJOR 1
-#define WDR_PROTO_VERSION_MINOR 2 /* 1.1: SET_EXPOSURE, exposure fields in STATUS; 1.2: INFO flags, new session */
+#define WDR_PROTO_VERSION_MINOR 3 /* 1.1: SET_EXPOSURE, exposure fields in STATUS; 1.2: INFO flags, new session;
+                                   1.3: CAPTURE takes WDR_CAPTURE_RAW */
 
 #define WDR_PROTO_SYNC0 0x57u /* 'W' */
 #define WDR_PROTO_SYNC1 0x44u /* 'D' */
@@ -127,6 +128,9 @@ int wdr_status_from_err(int err);
 
 /* ---- Payload layouts (offsets in SPEC.md) ------------------------------------------------ */
 
+/* CAPTURE's optional flags byte (protocol 1.1). RAW: frames as the ADC gave them, with no
+ * calibration table applied and no table changed (calibration measures through it). */
+#define WDR_CAPTURE_RAW 0x01u
 #define WDR_BEGIN_SIZE 8u        /* total_len u32, crc32 u32 of the whole table */
 #define WDR_CHUNK_OFFSET_SIZE 4u /* offset u32, then 1..WDR_PROTO_CHUNK_DATA_MAX table bytes */
 #define WDR_COMMIT_REPLY_SIZE 12u

@@ -2,8 +2,10 @@
 #include "image_io.h"
 #include "wdr_err.h"
 #include "exr_read.h"
+#include "file_io.h"
+#include "radiance.h"
+#include <errno.h>
 #include <math.h>
-#include <stb_image.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,20 +15,26 @@ static float luminance(float r, float g, float b) { return 0.2126f * r + 0.7152f
 
 /* ---- Radiance .hdr ---- */
 
+/* Our own bounded reader (radiance.h), not stb_image: Debian 12's 2.27 hangs on a crafted run. */
 static int load_radiance(const char *path, float **lum, int *w, int *h, char *err, int errlen)
 {
-    int n;
-    float *rgb = stbi_loadf(path, w, h, &n, 3);
-    if (!rgb) {
-        snprintf(err, (size_t)errlen, "%s: not a readable Radiance image (%s)", path, stbi_failure_reason());
-        return WDR_E_INVAL;
+    uint8_t *buf;
+    size_t len;
+    if (wdr_read_file(path, &buf, &len)) {
+        snprintf(err, (size_t)errlen, "%s: cannot read image: %s", path, strerror(errno));
+        return WDR_E_IO;
     }
-    long count = (long)*w * *h;
-    *lum = malloc((size_t)count * sizeof **lum);
+    float *rgb;
+    int rc = wdr_radiance_decode(buf, len, path, &rgb, w, h, err, errlen);
+    free(buf);
+    if (rc)
+        return rc;
+    size_t count = (size_t)*w * (size_t)*h;
+    *lum = malloc(count * sizeof **lum);
     if (*lum)
-        for (long i = 0; i < count; i++)
+        for (size_t i = 0; i < count; i++)
             (*lum)[i] = luminance(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
-    stbi_image_free(rgb);
+    free(rgb);
     return *lum ? WDR_OK : WDR_E_NOMEM;
 }
 

@@ -1,5 +1,5 @@
 /* HDR images in, one luminance value per pixel out: OpenEXR (every compression, DWAA/DWAB
- * included, through the C++ library: exr_read.h), Radiance .hdr (stb_image) and PFM (image_io.h).
+ * included, through the C++ library: exr_read.h), Radiance .hdr (radiance.h, bounded) and PFM (image_io.h).
  * Luminance is Y = 0.2126 R + 0.7152 G + 0.0722 B (Rec. 709 primaries, linear values). */
 #ifndef WDR_HDR_IMAGE_H
 #define WDR_HDR_IMAGE_H

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 static int io_fail(char *err, int errlen, const char *path, const char *what)
 {
@@ -80,6 +81,24 @@ int wdr_pfm_write(const char *path, const float *px, int w, int h, char *err, in
     return fclose(f) ? io_fail(err, errlen, path, "write failed (disk full?)") : WDR_OK;
 }
 
+/* The raster the header promises must be in the file before it is allocated. */
+static int pfm_fits_file(FILE *f, const char *path, int ch, int w, int h, char *err, int errlen)
+{
+    struct stat st;
+    long at = ftell(f);
+    uint64_t need = (uint64_t)w * (uint64_t)h * (uint64_t)ch * 4u;
+    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode) || at < 0) {
+        snprintf(err, (size_t)errlen, "%s: not a regular file", path);
+        return WDR_E_INVAL;
+    }
+    if ((uint64_t)st.st_size - (uint64_t)at < need || (uint64_t)st.st_size < (uint64_t)at) {
+        snprintf(err, (size_t)errlen, "%s: field 'raster': truncated (%dx%dx%d floats need %llu bytes, %lld left)",
+                 path, w, h, ch, (unsigned long long)need, (long long)(st.st_size - at));
+        return WDR_E_INVAL;
+    }
+    return WDR_OK;
+}
+
 static int pfm_header(FILE *f, const char *path, int *ch, int *w, int *h, double *scale, char *err, int errlen)
 {
     char magic[3] = {0};
@@ -88,8 +107,10 @@ static int pfm_header(FILE *f, const char *path, int *ch, int *w, int *h, double
         return WDR_E_INVAL;
     }
     *ch = magic[1] == 'F' ? 3 : 1;
-    if (fscanf(f, "%d %d %lf", w, h, scale) != 3 || *w <= 0 || *h <= 0 || *w > 65536 || *h > 65536) {
-        snprintf(err, (size_t)errlen, "%s: field 'size': bad width/height", path);
+    if (fscanf(f, "%d %d %lf", w, h, scale) != 3 || *w <= 0 || *h <= 0 ||
+        (uint64_t)*w * (uint64_t)*h > WDR_IMAGE_MAX_PIXELS) {
+        snprintf(err, (size_t)errlen, "%s: field 'size': bad width/height (1 to %u pixels)", path,
+                 WDR_IMAGE_MAX_PIXELS);
         return WDR_E_INVAL;
     }
     if (!isfinite(*scale) || *scale == 0) {
@@ -97,7 +118,7 @@ static int pfm_header(FILE *f, const char *path, int *ch, int *w, int *h, double
         return WDR_E_INVAL;
     }
     fgetc(f); /* the single whitespace before the raster */
-    return WDR_OK;
+    return pfm_fits_file(f, path, *ch, *w, *h, err, errlen);
 }
 
 static float to_host_float(const uint8_t *b, int big_endian)

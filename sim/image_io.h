@@ -4,6 +4,10 @@
 #define WDR_IMAGE_IO_H
 #include <stdint.h>
 
+/* Largest image any reader here accepts (8192 x 8192): a header claiming more is refused before
+ * anything is allocated, as is one claiming more pixels than the file's bytes can hold. */
+#define WDR_IMAGE_MAX_PIXELS (64u << 20)
+
 /* Write a grey PNG of w*h samples; bits is 8 or 16 (16-bit samples are big-endian in the file).
  * @retval WDR_OK, WDR_E_IO (err names the file), WDR_E_INVAL */
 int wdr_png_write_gray(const char *path, const uint16_t *px, int w, int h, int bits, char *err, int errlen);

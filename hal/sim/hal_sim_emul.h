@@ -52,10 +52,15 @@ int hal_sim_set_scene(const float *amps);
  * it and every later flash call return WDR_E_POWER until hal_sim_reboot. */
 void hal_sim_cut_power_at(uint64_t n);
 
+/* The same with the shape of the tear the cut leaves: enum nor_tear of nor_emul.h (nothing
+ * done, first half, second half, bits partly programmed or erased). */
+void hal_sim_cut_power_tear(uint64_t n, int tear);
+
 /* Make the n-th erase or program from now fail with WDR_E_IO, leaving flash untouched; 0 disarms. */
 void hal_sim_fail_flash_at(uint64_t n);
 
-/* Erases and programs since setup (reads are not counted: they change nothing). */
+/* Erases and programs since setup, counted as nor_emul.h counts them (reads are not counted:
+ * they change nothing). */
 uint64_t hal_sim_flash_ops(void);
 
 /* 1 after a power cut, until hal_sim_reboot. */

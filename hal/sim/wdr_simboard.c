@@ -10,6 +10,7 @@
 #include "hal.h"
 #include "hal_sim_emul.h"
 #include "simboard_loop.h"
+#include "wdr_fw_config.h"
 #include "wdr_err.h"
 #include "wdr_scene.h"
 #include "wdr_sim.h"
@@ -97,6 +98,15 @@ static void install_signals(void)
 
 static int exit_for(int rc) { return rc == WDR_E_IO ? EX_NOINPUT : rc == WDR_E_NOMEM ? EX_OSERR : EX_DATAERR; }
 
+/* A --flash file that exists with bytes, but not this board's flash size: bad data (65), where
+ * the other setup refusals are about how we were called (64). */
+static int flash_file_wrong_size(const char *path)
+{
+    struct stat st;
+    return path && stat(path, &st) == 0 && st.st_size != 0 &&
+           (uint64_t)st.st_size != (uint64_t)HAL_SIM_FLASH_BLOCK_SIZE * HAL_SIM_FLASH_BLOCK_COUNT;
+}
+
 /* Board and scene files, then the board built from them; the scene lights the sensor and picks
  * its effects. --seed overrides the scene's chip seed. */
 static int start_board(const simboard_opts *o, wdr_board *b)
@@ -120,7 +130,7 @@ static int start_board(const simboard_opts *o, wdr_board *b)
     if (rc != WDR_OK) {
         fprintf(stderr, "wdr-simboard: %s\n", err);
         wdr_scene_free(&scene);
-        return rc == WDR_E_IO ? EX_CANTCREAT : EX_USAGE;
+        return rc == WDR_E_IO ? EX_CANTCREAT : flash_file_wrong_size(o->flash) ? EX_DATAERR : EX_USAGE;
     }
     rc = wdr_scene_apply(&scene, hal_sim_sensor());
     if (rc != WDR_OK)
@@ -149,6 +159,10 @@ int main(int argc, char **argv)
         hal_sim_teardown();
         return rc;
     }
+    if (b.width > WDR_FW_MAX_WIDTH) /* it serves INFO and STATUS; uploads and captures say UNSUPPORTED */
+        fprintf(stderr, "wdr-simboard: warning: %s is %u pixels wide; the firmware reads at most %u pixels per row "
+                "(WDR_FW_MAX_WIDTH): it will answer INFO and STATUS and refuse tables and captures\n", o.board,
+                b.width, WDR_FW_MAX_WIDTH);
     hal_sim_set_exit_on_disconnect(o.once);
     watch_parent_pipe();
     fprintf(stderr, "wdr-simboard: %s %ux%u serving wdrctl --device sim:%s (SIGTERM or Ctrl-C stops)\n", b.name,

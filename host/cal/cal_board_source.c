@@ -26,7 +26,7 @@ static int board_capture(void *ctx, double amps, int frame_no, float *frame)
         d->amps = amps;
     }
     d->frame = frame;
-    return wdr_client_capture(d->client, 1, d->codes, on_board_frame, d);
+    return wdr_client_capture_raw(d->client, 1, d->codes, on_board_frame, d); /* no table changed for it */
 }
 
 int wdr_cal_board_open(wdr_cal_board *d, wdr_client *client, wdr_cal_ask_level_fn ask, wdr_cal_source *src)
@@ -48,30 +48,6 @@ void wdr_cal_board_close(wdr_cal_board *d)
 {
     free(d->codes);
     d->codes = NULL;
-}
-
-int wdr_cal_board_store_passthrough(wdr_cal_board *d)
-{
-    const wdr_info *in = &d->client->info;
-    long np = (long)in->width * in->height;
-    uint16_t raw_max = (uint16_t)((1u << in->adc_bits) - 1u);
-    float *coeffs = malloc(sizeof(float) * 2 * (size_t)np);
-    uint8_t *flags = calloc((size_t)np, 1);
-    size_t len = wdr_cal_size(in->width, in->height, 2);
-    uint8_t *buf = malloc(len);
-    if (!coeffs || !flags || !buf) {
-        free(coeffs), free(flags), free(buf);
-        return WDR_E_NOMEM;
-    }
-    for (long i = 0; i < 2 * np; i++)
-        coeffs[i] = raw_max / 2.0f;
-    wdr_cal_header h = {.sensor_id = in->sensor_id, .width = in->width, .height = in->height,
-                        .form = WDR_FORM_POLY, .n_coeffs = 2, .in_scale = 2.0f / raw_max, .in_offset = -1,
-                        .out_scale = 1, .out_max = raw_max, .raw_max = raw_max};
-    wdr_cal_encode(&h, coeffs, flags, buf);
-    int rc = wdr_cal_board_store_table(d, buf, len);
-    free(coeffs), free(flags), free(buf);
-    return rc;
 }
 
 int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double *added_s, double *done_v,

@@ -1,6 +1,7 @@
 /* A board as the calibration frame source: frames captured over the protocol client, the
  * light set by the board itself (a simulated board, INFO capability ILLUMINANT) or by a person
- * (asked through a callback), and the tables calibration stores on the board. */
+ * (asked through a callback), and the tables calibration stores on the board when asked to.
+ * Frames are captured raw (WDR_CAPTURE_RAW): the board's calibration table stays as it was. */
 #ifndef CAL_BOARD_SOURCE_H
 #define CAL_BOARD_SOURCE_H
 #include "cal_engine.h"
@@ -24,11 +25,6 @@ typedef struct wdr_cal_board {
  * @retval WDR_OK, WDR_E_NOMEM */
 int wdr_cal_board_open(wdr_cal_board *d, wdr_client *client, wdr_cal_ask_level_fn ask, wdr_cal_source *src);
 void wdr_cal_board_close(wdr_cal_board *d);
-
-/* Store a pass-through table (polynomial v = y, output scale 1) so that frames come back raw:
- * the board corrects every row with its active table.
- * @retval WDR_OK, WDR_E_NOMEM, or the client's error */
-int wdr_cal_board_store_passthrough(wdr_cal_board *d);
 
 /* Store the LUT the board will image with, continued past its last code by the calibration
  * margin (wdr_cal_lut_extend), so that pixels with high thresholds cross at the dimmest

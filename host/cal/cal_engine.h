@@ -65,7 +65,8 @@ int wdr_cal_sim_setup(const wdr_board *b, const char *op_name, uint64_t chip_see
 /* Continue a LUT's ramp at its final slope for margin_v volts, so pixels with thresholds above
  * nominal still cross at the dimmest current and in the dark frame. The extension stops early
  * at max_time_frac of the integration time or the DAC's top code: *margin_done_v says how far
- * it got, *added_s how much integration time it added. One entry per extra code.
+ * it got, *added_s how much integration time it added. One entry per extra code, or per tick
+ * where the ramp ends steeper than one code per tick (times always rise).
  * *out is malloc'd. @retval WDR_OK, WDR_E_INVAL (err says why: flat end, no room), WDR_E_NOMEM,
  *         or the LUT parser's error */
 int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double max_time_frac, uint8_t **out,

@@ -37,6 +37,24 @@ static uint32_t extension_codes(const wdr_lut_view *lut, uint16_t c_last, uint32
     return extra > 0 ? (uint32_t)extra : 0;
 }
 
+/* Entries n.. of the extension, one code at a time at the final slope; where the ramp ends
+ * steeper than one code per tick, several codes fall on one tick, and only the highest is kept
+ * there, so times rise strictly as the format requires. Returns the new entry count. */
+static uint32_t extend_entries(uint32_t *t, uint16_t *c, uint32_t n, uint32_t t_last, uint16_t c_last, double step,
+                               uint32_t extra)
+{
+    uint32_t m = n;
+    for (uint32_t k = 1; k <= extra; k++) {
+        uint32_t tk = t_last + (uint32_t)ceil(k * step);
+        if (tk == t[m - 1]) /* same tick as the entry before (never one of the original's) */
+            m--;
+        t[m] = tk;
+        c[m] = (uint16_t)(c_last + k);
+        m++;
+    }
+    return m;
+}
+
 int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double max_time_frac, uint8_t **out,
                        size_t *out_len, double *added_s, double *margin_done_v, char *err, int errlen)
 {
@@ -71,13 +89,11 @@ int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double
     }
     for (uint32_t i = 0; i < n; i++)
         wdr_lut_entry(&lut, i, &t[i], &c[i]);
-    for (uint32_t k = 1; k <= extra; k++) {
-        t[n + k - 1] = t_last + (uint32_t)ceil(k * step);
-        c[n + k - 1] = (uint16_t)(c_last + k);
-    }
+    uint32_t m = extend_entries(t, c, n, t_last, c_last, step, extra);
     wdr_lut_header h = lut.h;
-    h.entry_count = n + extra;
-    uint32_t t_end = t[n + extra - 1] + (uint32_t)ceil(step) + 1;
+    h.entry_count = m;
+    *out_len = wdr_lut_size(m);
+    uint32_t t_end = t[m - 1] + (uint32_t)ceil(step) + 1;
     h.t_integration_ticks = t_end > lut.h.t_integration_ticks ? t_end : lut.h.t_integration_ticks;
     wdr_lut_encode(&h, t, c, *out);
     if (expo)

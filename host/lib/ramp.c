@@ -355,6 +355,10 @@ int wdr_ramp_quantise(const wdr_ramp *r, const wdr_board *b, const wdr_operator 
 {
     double tick_s = 1.0 / b->dac_timer_hz;
     uint32_t cap = WDR_LUT_MAX_ENTRIES;
+    if (b->dac_bits < 4 || b->dac_bits > 16) { /* 1 << dac_bits below, and the LUT format's range */
+        snprintf(err, (size_t)errlen, "dac.bits = %d is not 4..16", b->dac_bits);
+        return WDR_E_INVAL;
+    }
     int rc = check_dac_range(r, b, err, errlen);
     if (rc)
         return rc;

@@ -162,6 +162,37 @@ int wdr_client_request(wdr_client *c, uint8_t opcode, const void *payload, uint3
 
 /* ---- Connect, status, illuminant ------------------------------------------------------------ */
 
+/* Every INFO field later code sizes or shifts with, checked once here: a hostile or broken
+ * board's adc_bits of 40 was an undefined shift, a 0x0 sensor a 0x0 image written with exit 0. */
+static int info_check(wdr_client *c)
+{
+    const wdr_info *i = &c->info;
+    const struct { const char *name; unsigned value, lo, hi; } f[] = {
+        {"width", i->width, 1, 65535},
+        {"height", i->height, 1, 65535},
+        {"adc_bits", i->adc_bits, 1, 16},
+        {"dac_bits", i->dac_bits, 1, 16},
+    };
+    for (size_t k = 0; k < sizeof f / sizeof f[0]; k++)
+        if (f[k].value < f[k].lo || f[k].value > f[k].hi) {
+            char what[160];
+            snprintf(what, sizeof what, "INFO answer: field '%s' is %u, not %u..%u", f[k].name, f[k].value, f[k].lo,
+                     f[k].hi);
+            return fail(c, WDR_E_PROTOCOL, what);
+        }
+    return WDR_OK;
+}
+
+/* A connection the board never answers: it serves one host at a time, so the likeliest reason
+ * is another host holding it. Say so instead of only "no answer". */
+static int connect_timed_out(wdr_client *c)
+{
+    char what[224];
+    snprintf(what, sizeof what, "no answer to INFO after %d attempt(s) of %d ms: another host may hold the board "
+             "(it serves one host at a time), or it is not running", c->retries + 1, c->timeout_ms);
+    return fail(c, WDR_E_TIMEOUT, what);
+}
+
 int wdr_client_connect(wdr_client *c, wdr_transport *t)
 {
     wdr_event_fn keep_fn = c->on_event;
@@ -184,6 +215,8 @@ int wdr_client_connect(wdr_client *c, wdr_transport *t)
     wdr_put_u16(ver + 2, WDR_PROTO_VERSION_MINOR);
     wdr_put_u32(ver + 4, WDR_INFO_FLAG_NEW_SESSION);
     int rc = wdr_client_request(c, WDR_CMD_INFO, ver, sizeof ver);
+    if (rc == WDR_E_TIMEOUT)
+        return connect_timed_out(c);
     if (rc != WDR_OK && !(rc == WDR_E_STATUS && c->status == WDR_ST_BAD_VERSION))
         return rc;
     if (wdr_info_unpack(c->reply, c->reply_len, &c->info) != WDR_OK)
@@ -194,7 +227,7 @@ int wdr_client_connect(wdr_client *c, wdr_transport *t)
                  c->info.proto_minor, WDR_PROTO_VERSION_MAJOR, WDR_PROTO_VERSION_MINOR);
         return fail(c, WDR_E_VERSION, what);
     }
-    return WDR_OK;
+    return info_check(c);
 }
 
 int wdr_client_status(wdr_client *c, wdr_status_report *out)
@@ -278,8 +311,11 @@ int wdr_client_upload(wdr_client *c, int kind, const uint8_t *table, size_t len,
     int rc = wdr_client_request(c, op, begin, sizeof begin);
     if (rc == WDR_OK)
         rc = upload_chunks(c, (uint8_t)(op + 1), table, len, progress, progress_ctx);
-    if (rc == WDR_OK)
+    c->commit_unknown = 0;
+    if (rc == WDR_OK) {
         rc = wdr_client_request(c, (uint8_t)(op + 2), NULL, 0);
+        c->commit_unknown = rc == WDR_E_IO || rc == WDR_E_TIMEOUT; /* sent, maybe done, no answer */
+    }
     if (rc == WDR_OK)
         return check_commit(c, crc, out);
     if (rc != WDR_E_IO)
@@ -395,18 +431,35 @@ static int run_capture(wdr_client *c, capture_ctx *k, uint8_t opcode, const uint
     return rc;
 }
 
-int wdr_client_capture(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx)
+static int capture(wdr_client *c, uint32_t n, int raw, uint16_t *codes, wdr_frame_fn on_frame, void *ctx)
 {
     if (n == 0 || n > 65535)
         return fail(c, WDR_E_INVAL, "frame count must be 1..65535");
+    if (raw && c->info.proto_minor < 1) {
+        char what[160];
+        snprintf(what, sizeof what, "board speaks protocol %u.%u: raw frames need 1.1 (update its firmware)",
+                 c->info.proto_major, c->info.proto_minor);
+        return fail(c, WDR_E_UNSUPPORTED, what);
+    }
     capture_ctx k = {.frame.codes = codes, .frames_wanted = n, .on_frame = on_frame, .ctx = ctx};
-    uint8_t arg[4];
+    uint8_t arg[5];
     wdr_put_u32(arg, n);
-    int rc = run_capture(c, &k, WDR_CMD_CAPTURE, arg, sizeof arg, NULL);
+    arg[4] = WDR_CAPTURE_RAW;
+    int rc = run_capture(c, &k, WDR_CMD_CAPTURE, arg, raw ? 5u : 4u, NULL);
     c->on_event = NULL;
     if (rc != WDR_OK && rc != WDR_E_IO)
         abort_quietly(c);
     return rc;
+}
+
+int wdr_client_capture(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx)
+{
+    return capture(c, n, 0, codes, on_frame, ctx);
+}
+
+int wdr_client_capture_raw(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx)
+{
+    return capture(c, n, 1, codes, on_frame, ctx);
 }
 
 int wdr_client_stream(wdr_client *c, uint16_t *codes, wdr_frame_fn on_frame, void *ctx, volatile int *stop)
@@ -414,8 +467,10 @@ int wdr_client_stream(wdr_client *c, uint16_t *codes, wdr_frame_fn on_frame, voi
     capture_ctx k = {.frame.codes = codes, .frames_wanted = UINT32_MAX, .on_frame = on_frame, .ctx = ctx};
     uint8_t on = 1, off = 0;
     int rc = run_capture(c, &k, WDR_CMD_STREAM, &on, 1, stop);
-    if (rc == WDR_E_IO)
+    if (rc == WDR_E_IO) {
+        c->on_event = NULL; /* k dies with this frame: a later request must not call into it */
         return rc;
+    }
     k.stopping = 1; /* rows still in flight belong to a frame nobody wants */
     int rc_off = wdr_client_request(c, WDR_CMD_STREAM, &off, 1);
     c->on_event = NULL;

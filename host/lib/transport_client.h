@@ -28,6 +28,8 @@ typedef struct wdr_client {
     int status;                  /* enum wdr_status of the last response */
     wdr_info info;               /* from connect */
     uint32_t retries_used;       /* attempts repeated since connect (for tests and reports) */
+    int commit_unknown;          /* the link failed during the last upload's COMMIT: the board may
+                                    or may not have made the table active (ask STATUS) */
     wdr_event_fn on_event;
     void *event_ctx;
     wdr_proto_decoder dec;
@@ -56,7 +58,8 @@ int wdr_client_request(wdr_client *c, uint8_t opcode, const void *payload, uint3
 int wdr_client_status(wdr_client *c, wdr_status_report *out);
 
 /* Upload a table (kind: enum wdr_table_kind) in chunks, commit, and compare the CRC the board
- * read back from flash with ours. progress may be NULL.
+ * read back from flash with ours. progress may be NULL. A link failure on the COMMIT itself
+ * sets c->commit_unknown: the table may be active all the same.
  * @retval WDR_OK, request errors, WDR_E_CORRUPT (board stored other bytes than we sent) */
 int wdr_client_upload(wdr_client *c, int kind, const uint8_t *table, size_t len, wdr_progress_fn progress,
                       void *progress_ctx, wdr_commit_reply *out);
@@ -76,6 +79,11 @@ typedef int (*wdr_frame_fn)(void *ctx, const wdr_frame *f);
  * width*height values. A frame that misses rows is an error (WDR_E_PROTOCOL).
  * @retval WDR_OK, request errors, WDR_E_TIMEOUT (rows stopped coming) */
 int wdr_client_capture(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx);
+
+/* The same with no calibration table applied on the board (protocol 1.1): what calibration
+ * measures. The board's tables are not touched.
+ * @retval as wdr_client_capture; WDR_E_UNSUPPORTED from a board of protocol 1.0 */
+int wdr_client_capture_raw(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx);
 
 /* Stream until on_frame returns non-OK or *stop becomes non-zero, then switch streaming off
  * and drain. @retval WDR_OK when stopped by on_frame's WDR_E_... or *stop; request errors */

@@ -2,6 +2,8 @@
 #include "cal_common.h"
 #include "cli_number.h"
 #include "wdr_err.h"
+#include "file_io.h"
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -38,8 +40,11 @@ int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o
                                o->frames_text);
         o->frames = (int)n;
     }
-    const char *env = wdrctl_global.device; /* --device or $WDR_DEVICE: a board when one is named */
-    if ((cmd->flags & CLI_CMD_BOARD) && env && *env)
+    /* --device or $WDR_DEVICE: a board when one is named. But --board names the simulator to
+     * calibrate: then only an explicit --device sends the run (and its uploads) to a board. */
+    const char *env = wdrctl_global.device, *from_env = getenv("WDR_DEVICE");
+    int only_env = env && from_env && env == from_env;
+    if ((cmd->flags & CLI_CMD_BOARD) && env && *env && !(o->board && only_env))
         o->device = env;
     return EX_OK;
 }
@@ -64,36 +69,42 @@ const char *cal_model_name(int model)
 /* Currents from "a,b,c" or a file of one current per line (# comments); rising, > 0. */
 static int parse_current_list(const char *text, const char *what, double *amps, int *n)
 {
-    char buf[4096], *save = NULL;
-    snprintf(buf, sizeof buf, "%s", text);
+    char *buf = strdup(text), *save = NULL; /* any length: a fixed copy cut long files silently */
+    if (!buf)
+        return wdrctl_fail(EX_OSERR, "%s: out of memory", what);
+    int rc = EX_OK;
     *n = 0;
     for (char *tok = strtok_r(buf, ", \t\r\n", &save); tok; tok = strtok_r(NULL, ", \t\r\n", &save)) {
         double v = 0;
-        if (cli_number_double(tok, 0, HUGE_VAL, &v) != CLI_NUM_OK || v <= 0 || *n >= WDR_CAL_MAX_LEVELS)
-            return wdrctl_fail(EX_DATAERR, "%s: current '%s' is not a positive finite number (A), or too many",
-                               what, tok);
-        if (*n > 0 && !(v > amps[*n - 1]))
-            return wdrctl_fail(EX_DATAERR, "%s: currents must rise, %g A follows %g A", what, v, amps[*n - 1]);
+        if (cli_number_double(tok, 0, HUGE_VAL, &v) != CLI_NUM_OK || v <= 0 || *n >= WDR_CAL_MAX_LEVELS) {
+            rc = wdrctl_fail(EX_DATAERR, "%s: current '%s' is not a positive finite number (A), or too many", what,
+                             tok);
+            break;
+        }
+        if (*n > 0 && !(v > amps[*n - 1])) {
+            rc = wdrctl_fail(EX_DATAERR, "%s: currents must rise, %g A follows %g A", what, v, amps[*n - 1]);
+            break;
+        }
         amps[(*n)++] = v;
     }
+    free(buf);
+    if (rc != EX_OK)
+        return rc;
     return *n ? EX_OK : wdrctl_fail(EX_DATAERR, "%s: no currents", what);
 }
 
+/* The whole file, comments blanked: no fixed buffer (a 4 KiB one overflowed on a longer file). */
 static int read_levels_file(const char *path, double *amps, int *n)
 {
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return wdrctl_fail(EX_NOINPUT, "%s: cannot read levels file", path);
-    char text[4096] = "", line[256];
-    while (fgets(line, sizeof line, f)) {
-        char *hash = strchr(line, '#');
-        if (hash)
-            *hash = 0;
-        strncat(text, line, sizeof text - strlen(text) - 2);
-        strcat(text, "\n");
-    }
-    fclose(f);
-    return parse_current_list(text, path, amps, n);
+    char *text = wdr_read_text(path);
+    if (!text)
+        return wdrctl_fail(EX_NOINPUT, "%s: cannot read levels file: %s", path, strerror(errno));
+    for (char *p = text; (p = strchr(p, '#')) != NULL;)
+        while (*p && *p != '\n')
+            *p++ = ' ';
+    int rc = parse_current_list(text, path, amps, n);
+    free(text);
+    return rc;
 }
 
 /* ---- the board and the simulated chip ---- */

@@ -64,10 +64,7 @@ static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
                            "--currents A,B,.. or --levels-file FILE (you are asked for each)", o->device);
     if (o->lut && (rc = upload_lut_with_margin(d, o->lut)) != EX_OK)
         return rc;
-    int r = wdr_cal_board_store_passthrough(&d->board);
-    if (r)
-        return wdrctl_conn_fail(&d->conn, r);
-    return EX_OK;
+    return EX_OK; /* frames come raw (wdr_client_capture_raw): no table is changed to measure */
 }
 
 static void close_device(device_src *d)
@@ -247,9 +244,11 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
     cJSON_Delete(j);
 }
 
-static int upload_table(device_src *d, const cal_run *r)
+static int upload_table(device_src *d, const char *address, const cal_run *r)
 {
     int rc = wdr_cal_board_store_table(&d->board, r->table, r->table_len);
+    if (rc && d->conn.c->commit_unknown)
+        return wdrctl_commit_outcome(&d->conn, address, WDR_KIND_CAL, r->table, r->table_len);
     if (rc)
         return wdrctl_conn_fail(&d->conn, rc);
     fprintf(stderr, "wdrctl: calibration table uploaded and active\n");
@@ -325,7 +324,7 @@ int cmd_calibrate(int argc, char **argv)
             v.can_light = d.board.simulated, v.design = &design;
             rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model, &v);
             if (rc == EX_OK && o.upload)
-                rc = upload_table(&d, &r);
+                rc = upload_table(&d, o.device, &r);
         }
         close_device(&d);
         cal_free_run(&r);

@@ -2,12 +2,14 @@
  * capture, stream, integration, sim illuminant. The board is chosen with --device ADDR or
  * $WDR_DEVICE (sim:/path.sock, usb, usb:BUS-ADDR); failures map to sysexits codes. */
 #include "cli_number.h"
+#include "crc32.h"
 #include "file_io.h"
 #include "image_io.h"
 #include "transport.h"
 #include "transport_client.h"
 #include "wdr_cal.h"
 #include "wdr_err.h"
+#include "wdr_fw_config.h"
 #include "wdr_lut.h"
 #include "wdrctl.h"
 #include <cJSON.h>
@@ -182,6 +184,12 @@ int wdrctl_connect(const char *address, int timeout_ms, int retries, wdrctl_conn
 
 int wdrctl_conn_fail(wdrctl_conn *conn, int rc)
 {
+    const wdr_info *i = &conn->c->info;
+    int refused = rc == WDR_E_STATUS && (conn->c->status == WDR_ST_UNSUPPORTED || conn->c->status == WDR_ST_NO_TABLE);
+    if (refused && i->width > WDR_FW_MAX_WIDTH) /* the likely reason, which the status alone does not give */
+        return wdrctl_fail(wdrctl_exit_code(rc, conn->c->status),
+                           "%s (the board's sensor is %u pixels wide; this firmware handles at most %u per row)",
+                           conn->c->err, i->width, WDR_FW_MAX_WIDTH);
     return wdrctl_fail(wdrctl_exit_code(rc, conn->c->status), "%s", conn->c->err);
 }
 
@@ -395,6 +403,34 @@ static int verify_table(int kind, const char *path, const uint8_t *buf, size_t l
     return EX_OK;
 }
 
+int wdrctl_commit_outcome(wdrctl_conn *conn, const char *address, int kind, const uint8_t *table, size_t len)
+{
+    const char *what = kind == WDR_KIND_LUT ? "LUT" : "calibration table";
+    fprintf(stderr, "wdrctl: %s; the %s was sent in full, asking the board whether it took it\n", conn->c->err, what);
+    int timeout = conn->c->timeout_ms, retries = conn->c->retries;
+    wdrctl_disconnect(conn); /* the board serves one host: free it for the question */
+    wdrctl_conn again;
+    wdr_status_report st;
+    if (connect_waiting(address, timeout, retries, 3000, &again) != EX_OK)
+        return wdrctl_fail(EX_TEMPFAIL, "outcome unknown: the board did not answer again; run 'wdrctl status' to see "
+                           "whether the %s with CRC %08x is active", what, wdr_crc32(0, table, len));
+    int rc = wdr_client_status(again.c, &st);
+    uint32_t want = wdr_crc32(0, table, len), have = kind == WDR_KIND_LUT ? st.lut_crc : st.cal_crc;
+    uint8_t slot = kind == WDR_KIND_LUT ? st.lut_slot : st.cal_slot;
+    int code;
+    if (rc != WDR_OK)
+        code = wdrctl_fail(EX_TEMPFAIL, "outcome unknown: STATUS failed (%s); run 'wdrctl status'", again.c->err);
+    else if (slot != WDR_SLOT_NONE && have == want) {
+        printf("%zu bytes stored in slot %s, crc %08x (the board reports it active after the link failed)\n", len,
+               slot_name(slot), have);
+        code = EX_OK;
+    } else
+        code = wdrctl_fail(EX_IOERR, "upload failed: the board still runs the previous %s (CRC %08x, not %08x)", what,
+                           have, want);
+    wdrctl_disconnect(&again);
+    return code;
+}
+
 static int upload(int argc, char **argv, int kind, const cli_command *command)
 {
     const char *cmd = command->name;
@@ -416,7 +452,8 @@ static int upload(int argc, char **argv, int kind, const cli_command *command)
                                              (void *)cmd, &reply)
                          : WDR_OK;
     if (rc == EX_OK && up != WDR_OK)
-        rc = wdrctl_conn_fail(&conn, up);
+        rc = conn.c->commit_unknown ? wdrctl_commit_outcome(&conn, o.device, kind, buf, len)
+                                    : wdrctl_conn_fail(&conn, up);
     else if (rc == EX_OK)
         printf("%s: %zu bytes stored in slot %s, seq %u, crc %08x (verified)\n", o.args[0], len,
                slot_name(reply.slot), reply.seq, reply.crc);

@@ -75,7 +75,7 @@ static const cli_option lut_build_rows[] = {
      .choices = timings, .what = "timing"},
     {"entries", 0, CLI_INT, O(entries), "N", "entries of a uniform-clock table (default: the board's)", .min = 1,
      .max = 65536},
-    {"dac-bits", 0, CLI_INT, O(dac_bits), "N", "DAC resolution (default: the board's)", .min = 1, .max = 16},
+    {"dac-bits", 0, CLI_INT, O(dac_bits), "N", "DAC resolution (default: the board's)", .min = 4, .max = 16},
     {"curve", 0, CLI_STRING, O(curve), "FILE.csv", "the user curve of operator user_curve"},
     {"l-avg", 0, CLI_DOUBLE, O(l_avg), "X", "scene average luminance, cd/m2"},
     {"l-max", 0, CLI_DOUBLE, O(l_max), "X", "scene maximum luminance, cd/m2"},
@@ -394,6 +394,8 @@ int cmd_lut_build(int argc, char **argv)
     int rc = parse_lut_opts(argc, argv, &o);
     if (rc == EX_OK)
         rc = load_board(o.board, &b);
+    if (rc == EX_OK && o.dac_bits && (o.dac_bits < 4 || o.dac_bits > 16))
+        rc = wdrctl_fail(EX_USAGE, "option --dac-bits: %d is not 4..16", o.dac_bits);
     if (rc == EX_OK && o.dac_bits)
         b.dac_bits = o.dac_bits;
     if (rc == EX_OK)

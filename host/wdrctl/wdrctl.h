@@ -5,6 +5,7 @@
 #define WDRCTL_H
 #include "cli_options.h"
 #include <stddef.h>
+#include <stdint.h>
 #include <sysexits.h>
 
 /* Global options: before or after any command that talks to a board (main.c). */
@@ -78,6 +79,11 @@ typedef struct wdrctl_conn {
  * version. Prints the reason on failure. @return a sysexits code (EX_OK when connected) */
 int wdrctl_connect(const char *address, int timeout_ms, int retries, wdrctl_conn *conn);
 void wdrctl_disconnect(wdrctl_conn *conn);
+
+/* After an upload whose COMMIT lost the link (c->commit_unknown): disconnect, connect again
+ * (waiting up to 3 s), and ask STATUS whether this table is active. Prints the outcome.
+ * @return EX_OK (it is active), EX_IOERR (the previous table is), EX_TEMPFAIL (no answer) */
+int wdrctl_commit_outcome(wdrctl_conn *conn, const char *address, int kind, const uint8_t *table, size_t len);
 
 /* Print the client's last error and return its sysexits code (rc: what the client returned). */
 int wdrctl_conn_fail(wdrctl_conn *conn, int rc);

@@ -1,6 +1,7 @@
 /* The test board: every hal.h function over plain memory (see fake_hal.h). */
 #include "fake_hal.h"
 #include "hal.h"
+#include "nor_emul.h"
 #include "wdr_proto.h"
 #include <assert.h>
 #include <string.h>
@@ -15,8 +16,9 @@ typedef struct fifo {
 
 static struct {
     uint8_t flash[FB_BLOCK_SIZE * FB_BLOCK_COUNT];
-    long ops, cut_at;
-    int torn, power_lost;
+    uint8_t programmed[FB_BLOCK_SIZE * FB_BLOCK_COUNT / FB_PROG_SIZE];
+    nor_emul nor;     /* the one NOR emulator (hal/sim/nor_emul.h) */
+    uint64_t ops_at_boot; /* nor.ops at the last power-on: the test API counts from there */
     hal_event evq[EVQ_SIZE];
     unsigned ev_head, ev_tail;
     uint64_t now, timer_at, ramp_end;
@@ -30,9 +32,11 @@ static struct {
 
 void fb_power_cycle(void)
 {
-    fb.ops = 0;
-    fb.cut_at = -1;
-    fb.torn = fb.power_lost = 0;
+    fb.ops_at_boot = fb.nor.ops;
+    nor_emul_derive_programmed(&fb.nor); /* tests write fb_flash() directly between boots */
+    nor_emul_cut_power_at(&fb.nor, 0, NOR_TEAR_NONE);
+    nor_emul_fail_at(&fb.nor, 0);
+    nor_emul_reboot(&fb.nor);
     fb.ev_head = fb.ev_tail = 0;
     fb.now = fb.timer_at = fb.ramp_end = 0;
     fb.timer_armed = fb.ramp_playing = fb.tx_busy = 0;
@@ -42,19 +46,27 @@ void fb_power_cycle(void)
 
 void fb_init(void)
 {
-    memset(fb.flash, 0xff, sizeof fb.flash);
+    const hal_flash_geometry g = {FB_BLOCK_SIZE, FB_BLOCK_COUNT, FB_PROG_SIZE};
+    nor_emul_init(&fb.nor, &g, fb.flash, fb.programmed);
     fb.amps = 0;
     fb_power_cycle();
 }
 
+/* op counts from this power-on, 0-based; the emulator's numbers are absolute and 1-based. */
 void fb_cut_power_at(long op, int torn)
 {
-    fb.cut_at = op;
-    fb.torn = torn;
+    fb_cut_power_tear(op, torn ? NOR_TEAR_FIRST_HALF : NOR_TEAR_NONE);
 }
 
-long fb_flash_ops(void) { return fb.ops; }
-int fb_power_lost(void) { return fb.power_lost; }
+void fb_cut_power_tear(long op, int tear)
+{
+    nor_emul_cut_power_at(&fb.nor, op < 0 ? 0 : fb.ops_at_boot + (uint64_t)op + 1, tear);
+}
+
+void fb_fail_flash_at(long op) { nor_emul_fail_at(&fb.nor, op < 0 ? 0 : fb.ops_at_boot + (uint64_t)op + 1); }
+
+long fb_flash_ops(void) { return (long)(fb.nor.ops - fb.ops_at_boot); }
+int fb_power_lost(void) { return fb.nor.power_lost; }
 uint8_t *fb_flash(void) { return fb.flash; }
 double fb_illuminant(void) { return fb.amps; }
 uint64_t fb_ramp_ticks(void) { return fb.ramp_ticks; }
@@ -215,7 +227,7 @@ int hal_set_illuminant(double amps)
     return WDR_OK;
 }
 
-/* ---- Flash: strict NOR with a power-cut counter ----------------------------------------------- */
+/* ---- Flash: the NOR emulator of hal/sim, with its power-cut counter ----------------------------------------------- */
 
 int hal_flash_geometry_get(hal_flash_geometry *g)
 {
@@ -225,61 +237,9 @@ int hal_flash_geometry_get(hal_flash_geometry *g)
     return WDR_OK;
 }
 
-enum { POWER_ON, POWER_CUT_HERE, POWER_OFF };
-
-/* Count an operation and say whether power dies on it (or died before). */
-static int cut_now(void)
-{
-    if (fb.power_lost)
-        return POWER_OFF;
-    if (fb.ops++ == fb.cut_at) {
-        fb.power_lost = 1;
-        return POWER_CUT_HERE;
-    }
-    return POWER_ON;
-}
-
-int hal_flash_read(uint32_t addr, void *buf, uint32_t len)
-{
-    if (fb.power_lost)
-        return WDR_E_POWER;
-    if ((uint64_t)addr + len > sizeof fb.flash)
-        return WDR_E_INVAL;
-    memcpy(buf, fb.flash + addr, len);
-    return WDR_OK;
-}
-
-int hal_flash_erase(uint32_t block)
-{
-    if (block >= FB_BLOCK_COUNT)
-        return WDR_E_INVAL;
-    uint8_t *b = fb.flash + (size_t)block * FB_BLOCK_SIZE;
-    int power = cut_now();
-    if (power != POWER_ON) {
-        if (power == POWER_CUT_HERE && fb.torn)
-            memset(b, 0xff, FB_BLOCK_SIZE / 2);
-        return WDR_E_POWER;
-    }
-    memset(b, 0xff, FB_BLOCK_SIZE);
-    return WDR_OK;
-}
-
-int hal_flash_prog(uint32_t addr, const void *buf, uint32_t len)
-{
-    if (addr % FB_PROG_SIZE || len % FB_PROG_SIZE || (uint64_t)addr + len > sizeof fb.flash)
-        return WDR_E_INVAL;
-    for (uint32_t i = 0; i < len; i++)
-        if (fb.flash[addr + i] != 0xff)
-            return WDR_E_IO; /* strict: program only what was erased */
-    int power = cut_now();
-    if (power != POWER_ON) {
-        if (power == POWER_CUT_HERE && fb.torn)
-            memcpy(fb.flash + addr, buf, len / 2);
-        return WDR_E_POWER;
-    }
-    memcpy(fb.flash + addr, buf, len);
-    return WDR_OK;
-}
+int hal_flash_read(uint32_t addr, void *buf, uint32_t len) { return nor_emul_read(&fb.nor, addr, buf, len); }
+int hal_flash_erase(uint32_t block) { return nor_emul_erase(&fb.nor, block); }
+int hal_flash_prog(uint32_t addr, const void *buf, uint32_t len) { return nor_emul_prog(&fb.nor, addr, buf, len); }
 
 /* ---- USB ----------------------------------------------------------------------------------------- */
 

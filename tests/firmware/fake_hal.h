@@ -19,16 +19,24 @@
 /* Power on with erased flash (fresh board). */
 void fb_init(void);
 
-/* Power off and on: flash keeps its bytes; RAM state, queues, FIFOs and time restart. */
+/* Power off and on: flash keeps its bytes; RAM state, queues, FIFOs and time restart; armed
+ * flash faults are disarmed. */
 void fb_power_cycle(void);
 
-/* Cut power at flash operation number op (0-based, erase and program count; -1: never).
+/* The flash is the NOR emulator of hal/sim/nor_emul.h, which counts operations the one way
+ * it documents; here op numbers count from this power-on, 0-based.
+ * Cut power at flash operation number op (erase and program count; -1: never).
  * torn: the cut operation does half its work (half the bytes programmed, half a block erased). */
 void fb_cut_power_at(long op, int torn);
+/* The same with the shape of the tear: enum nor_tear (none, first half, second half, bits). */
+void fb_cut_power_tear(long op, int tear);
+/* Make flash operation op fail with WDR_E_IO, flash untouched (-1: never). */
+void fb_fail_flash_at(long op);
 long fb_flash_ops(void);   /* operations since fb_init or fb_power_cycle */
 int fb_power_lost(void);
 
-/* Raw flash, for tests that corrupt it on purpose. */
+/* Raw flash, for tests that corrupt or restore it on purpose. The next fb_power_cycle takes
+ * which program units are in use from the bytes (any byte not 0xFF). */
 uint8_t *fb_flash(void);
 
 /* The ADC code of a pixel in the test pattern (before any correction). */

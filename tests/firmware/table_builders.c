@@ -104,3 +104,32 @@ size_t th_make_cal_basis(uint8_t *out, uint32_t sensor_id, uint16_t w, uint16_t 
     wdr_cal_encode_basis(&hd, shared, coeffs, flags, out);
     return wdr_cal_size_basis(w, h, 2, TH_BASIS_POINTS);
 }
+
+size_t th_make_cal_wrapped(uint8_t *out, uint32_t sensor_id, uint16_t w, uint16_t h)
+{
+    static float coeffs[4 * 4096 * 64];
+    static uint8_t flags[4096 * 64];
+    const float shared[4] = {1.0f, 1.0f, 1.0f, 1.0f};
+    size_t n = (size_t)w * h;
+    if (n > 4096 * 64)
+        abort();
+    for (size_t i = 0; i < 4 * n; i++)
+        coeffs[i] = 1.0f;
+    memset(flags, 0, n);
+    wdr_cal_header hd;
+    memset(&hd, 0, sizeof hd);
+    hd.sensor_id = sensor_id;
+    hd.width = w;
+    hd.height = h;
+    hd.form = WDR_FORM_BASIS;
+    hd.n_coeffs = 4;
+    hd.shared_points = TH_WRAPPED_POINTS;
+    hd.model = WDR_MODEL_SPLINE;
+    hd.in_scale = 1.0f;
+    hd.out_scale = 1.0f;
+    hd.out_max = 4095;
+    hd.raw_max = 4095;
+    /* The encoder multiplies in u32 as the old check did: 4 shared floats, payload_len to match. */
+    wdr_cal_encode_basis(&hd, shared, coeffs, flags, out);
+    return WDR_CAL_HEADER_SIZE + hd.payload_len;
+}

@@ -19,4 +19,10 @@ size_t th_make_cal_basis(uint8_t *out, uint32_t sensor_id, uint16_t w, uint16_t 
 float th_basis_curve(float y);
 float th_basis_expect(int row, int col, float y);
 
+/* The table of issue 14: BASIS, 4 coefficients, shared_points 0x40000001, so that
+ * shared_points * n_coeffs wraps to 4 in u32 (16 bytes of shared block, header and payload CRCs
+ * right). A parser that multiplies in u32 takes it and reads 16 GiB past its buffer. */
+#define TH_WRAPPED_POINTS 0x40000001u
+size_t th_make_cal_wrapped(uint8_t *out, uint32_t sensor_id, uint16_t w, uint16_t h);
+
 #endif
