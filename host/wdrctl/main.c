@@ -39,6 +39,14 @@ static const wdrctl_command commands[] = {
     {"fpn", "report", cmd_fpn_report,
      "--outdir DIR [--models spline,simple3,complex4] [--board FILE] [--operator NAME] [--adc on|off]\n"
      "            [--dac on|off] [--json]  FPN contrast error, model error, DSNU/PRNU, histograms, test image"},
+    {NULL, "study", cmd_study,
+     "[--study FILE.json] [--adc-bits L] [--adc-range LO:HI,..] [--dac-bits L] [--dac-range LO:HI,..]\n"
+     "            [--converter-ranges full,fit] [--timing stamped,uniform] [--entries L] [--dac-timer-hz L]\n"
+     "            [--operator L] [--param KEY=V1,V2;..] [--model L] [--form auto,moebius,poly,basis] [--coeffs L]\n"
+     "            [--coeff-bits 32,16] [--levels L] [--levels-choice log,select] [--frames L] [--image-frames L]\n"
+     "            [--size WxH,..] [--range 1e-14:1e-8] [--target 1%] [--fps F] [--jobs 2] [--seed N]\n"
+     "            [--outdir DIR] [--no-plots] [--json]  what accuracy costs: every combination (lists: a,b or\n"
+     "            A:B[:STEP|:*FACTOR]) on the simulator, the table, Pareto fronts, plots, cheapest design"},
 };
 #define N_COMMANDS (int)(sizeof commands / sizeof commands[0])
 

@@ -30,6 +30,9 @@ int cmd_sim_illuminant(int argc, char **argv);
 int cmd_calibrate(int argc, char **argv);
 int cmd_fpn_report(int argc, char **argv);
 
+/* What accuracy costs (cmd_study.c over host/study/). */
+int cmd_study(int argc, char **argv);
+
 /* Scene statistics of an HDR image (wdr_lum_stats in operators.h); a sysexits code. */
 struct wdr_lum_stats;
 int wdrctl_stats_from_image(const char *path, struct wdr_lum_stats *st);
