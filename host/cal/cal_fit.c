@@ -1,5 +1,6 @@
 /* Array calibration: bad pixels, nominal curve, per-pixel fits. Table building is in cal_table.c. */
 #include "cal_fit.h"
+#include "cal_design.h"
 #include "wdr_err.h"
 #include <math.h>
 #include <stdio.h>
@@ -49,16 +50,21 @@ static double quadratic_end_slope(double h0, double h1, double d0, double d1)
 
 /* Knot slopes of the C2 cubic spline, its end slopes clamped to the three-point estimates (a
  * natural end would force zero curvature where the response still bends). Tridiagonal solve. */
-static void spline_slopes(const double *h, const double *d, int n, double *m)
+static void spline_slopes(const double *h, const double *d, int n, const double *ratio, double *m)
 {
     double diag[WDR_PCHIP_MAX], rhs[WDR_PCHIP_MAX], up[WDR_PCHIP_MAX];
     diag[0] = 1, up[0] = 0, rhs[0] = n > 2 ? quadratic_end_slope(h[0], h[1], d[0], d[1]) : d[0];
+    if (ratio && ratio[0] > 0)
+        rhs[0] = ratio[0] * d[0]; /* the design's shape: a three-point slope misses a response that
+                                     bends by a factor over one knot interval (the dark end) */
     for (int k = 1; k < n - 1; k++) {
         diag[k] = 2 * (h[k - 1] + h[k]);
         up[k] = h[k - 1];
         rhs[k] = 3 * (h[k] * d[k - 1] + h[k - 1] * d[k]);
     }
     diag[n - 1] = 1, rhs[n - 1] = n > 2 ? quadratic_end_slope(h[n - 2], h[n - 3], d[n - 2], d[n - 3]) : d[0];
+    if (ratio && ratio[1] > 0)
+        rhs[n - 1] = ratio[1] * d[n - 2];
     /* row k: lower = h[k] (k < n-1) or 0 (last, clamped), diag, upper = up[k] */
     for (int k = 1; k < n; k++) {
         double lower = k < n - 1 ? h[k] : 0, f = lower / diag[k - 1];
@@ -97,6 +103,11 @@ static void harmonic_slopes(const double *h, const double *d, int n, double *m)
 
 int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n)
 {
+    return wdr_pchip_init_ends(p, lx, y, n, NULL);
+}
+
+int wdr_pchip_init_ends(wdr_pchip *p, const double *lx, const double *y, int n, const double *end_ratio)
+{
     double h[WDR_PCHIP_MAX], d[WDR_PCHIP_MAX], safe[WDR_PCHIP_MAX];
     if (n < 2 || n > WDR_PCHIP_MAX)
         return WDR_E_INVAL;
@@ -115,7 +126,7 @@ int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n)
         p->m[0] = p->m[1] = d[0];
         return WDR_OK;
     }
-    spline_slopes(h, d, n, p->m);
+    spline_slopes(h, d, n, end_ratio, p->m);
     harmonic_slopes(h, d, n, safe);
     for (int k = 0; k < n - 1; k++)
         if (!segment_monotone(d[k], p->m[k], p->m[k + 1]))
@@ -676,10 +687,20 @@ static int fit_spline_pixel(const double *y, const double *med, int n, double ti
 static double spline_recover(const wdr_cal_result *res, const double *par, double y)
 {
     wdr_pchip p;
-    if (wdr_pchip_init(&p, res->nominal.curve.lx, par, res->nominal.curve.n))
+    if (wdr_pchip_init_ends(&p, res->nominal.curve.lx, par, res->nominal.curve.n, res->nominal.end_ratio))
         return 0;
     double lx = wdr_pchip_invert(&p, y);
     return lx > log(1e-22) ? exp(fmin(lx, log(1e-2))) : 0;
+}
+
+/* End slopes of the curves from the designed response's shape at the first and last two knots. */
+static void design_end_ratios(const wdr_cal_levels *lv, const wdr_cal_design *d, double *ratio)
+{
+    ratio[0] = ratio[1] = 0;
+    if (!d || lv->n < 3 || !(lv->amps[0] > 0))
+        return;
+    ratio[0] = wdr_cal_design_end_ratio(d, lv->amps[0], lv->amps[1]);
+    ratio[1] = wdr_cal_design_end_ratio(d, lv->amps[lv->n - 1], lv->amps[lv->n - 2]);
 }
 
 static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const double *med, char *err, int errlen)
@@ -699,8 +720,9 @@ static int fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const doub
         st = falling_repair(med, lv->n, res->cfg.tie_codes, falling); /* strictly falling: invertible */
         if (!st && !(falling[0] - falling[lv->n - 1] > lv->n * TIE_STEP))
             st = WDR_FIT_FLAT;
+        design_end_ratios(lv, res->cfg.design, n->end_ratio);
         if (!st)
-            st = wdr_pchip_init(&n->curve, lx, falling, lv->n) ? WDR_FIT_REVERSED : WDR_FIT_OK;
+            st = wdr_pchip_init_ends(&n->curve, lx, falling, lv->n, n->end_ratio) ? WDR_FIT_REVERSED : WDR_FIT_OK;
         n->y_top = !st ? dark_top(lv, falling) : 0;
         if (!st && res->model == WDR_MODEL_LSQ && build_inverse_table(n))
             return WDR_E_NOMEM;

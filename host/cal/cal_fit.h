@@ -25,6 +25,8 @@ typedef struct wdr_pchip {
     double lx[WDR_PCHIP_MAX], y[WDR_PCHIP_MAX], m[WDR_PCHIP_MAX];
 } wdr_pchip;
 
+struct wdr_cal_design;
+
 /* The nominal pixel: what a corrected pixel reports for current x. */
 typedef struct wdr_nominal {
     int model; /* enum wdr_cal_model_id: SIMPLE3 and COMPLEX4 use their model, LSQ/POLYMAP the PCHIP */
@@ -32,6 +34,9 @@ typedef struct wdr_nominal {
     wdr_complex4 c4;
     wdr_pchip curve;
     double x_lo, x_hi; /* calibrated range (A) */
+    /* curves: slope at the first and last knot over the secant to its neighbour, from the designed
+       response (cal_design.h); 0: three-point estimates from the knots alone */
+    double end_ratio[2];
     double y_top;      /* LSQ: the nominal level at zero current (the lowest two levels' secant) */
     /* LSQ: ln x at codes z0 + k dz, a starting point that one Newton step on the curve polishes */
     double *inv_lx, inv_z0, inv_dz;
@@ -57,6 +62,8 @@ typedef struct wdr_cal_config {
     double range_lo, range_hi; /* currents the table must serve (A); 0: the calibration currents' span */
     double tie_codes;   /* SPLINE/LSQ curves: neighbouring levels closer than this are quantisation ties
                            (default 0.5, half an ADC code; about 1e-3 for unquantised data) */
+    const struct wdr_cal_design *design; /* the designed response (may be NULL): curve models take
+                           their end slopes from its shape instead of three-point estimates */
 } wdr_cal_config;
 
 void wdr_cal_config_defaults(wdr_cal_config *c, int model);
@@ -118,6 +125,9 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
 
 /* Monotone interpolation helpers (exposed for tests). */
 int wdr_pchip_init(wdr_pchip *p, const double *lx, const double *y, int n);
+/* The same with end slopes end_ratio[0] * first secant and end_ratio[1] * last secant (a ratio of 0
+ * keeps the three-point estimate); where they would break monotonicity the PCHIP end is used. */
+int wdr_pchip_init_ends(wdr_pchip *p, const double *lx, const double *y, int n, const double *end_ratio);
 double wdr_pchip_eval(const wdr_pchip *p, double lx);
 double wdr_pchip_slope(const wdr_pchip *p, double lx);
 /* ln x where the curve reaches y (linear beyond the ends; the curve must be strictly monotone). */

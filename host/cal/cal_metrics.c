@@ -1,4 +1,5 @@
-/* FPN contrast error, model error, DSNU and PRNU. */
+/* Figures of merit (see cal_metrics.h): recovered currents, contrast error as the spread of
+ * ln(x_hat / x), total error, display-space error, the quantisation floor; model error, DSNU, PRNU. */
 #include "cal_metrics.h"
 #include "correct.h"
 #include "wdr_err.h"
@@ -32,6 +33,188 @@ static int table_frame(const wdr_cal_view *tab, const float *frame, float *out)
         out[i] /= tab->h.out_scale;
     return WDR_OK;
 }
+
+
+/* ---- x_hat ---- */
+
+int wdr_fpn_recover(const wdr_cal_result *res, const wdr_cal_view *tab, int path, const float *frame,
+                    const uint8_t *flags, double *x_hat)
+{
+    long np = (long)res->width * res->height;
+    float *corr = NULL;
+    if (path == WDR_PATH_TABLE && (!tab || tab->h.width != res->width || tab->h.height != res->height))
+        return WDR_E_INVAL;
+    if (path == WDR_PATH_TABLE) {
+        if (!(corr = malloc(sizeof(float) * (size_t)np)))
+            return WDR_E_NOMEM;
+        int rc = table_frame(tab, frame, corr);
+        if (rc) {
+            free(corr);
+            return rc;
+        }
+    }
+    for (long i = 0; i < np; i++) {
+        int left_out = (flags && flags[i]) ||
+                       (corr && tab->payload && wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width]);
+        x_hat[i] = left_out ? NAN : recovered(res, path, i, frame[i], corr ? corr[i] : 0);
+    }
+    free(corr);
+    return WDR_OK;
+}
+
+/* ---- contrast error ---- */
+
+#define UNRESOLVED_DECADES 1.0 /* beyond a decade past the calibrated range an inverse is a clamp */
+
+void wdr_contrast_of(const double *x_hat, long n, double x, double x_lo, double x_hi, wdr_contrast *out)
+{
+    double sum = 0, sum2 = 0, lim_lo = x_lo * pow(10, -UNRESOLVED_DECADES), lim_hi = x_hi * pow(10, UNRESOLVED_DECADES);
+    memset(out, 0, sizeof *out);
+    out->x = x;
+    for (long i = 0; i < n; i++) {
+        double v = x_hat[i];
+        if (isnan(v)) {
+            out->excluded++;
+            continue;
+        }
+        if (!isfinite(v) || !(v >= lim_lo && v <= lim_hi)) {
+            out->unresolved++;
+            continue;
+        }
+        double e = 100 * log(v / x);
+        out->used++;
+        out->beyond += v < x_lo || v > x_hi;
+        sum += e, sum2 += e * e;
+        out->max_abs_pct = fmax(out->max_abs_pct, fabs(e));
+    }
+    if (out->used) {
+        out->mean_pct = sum / out->used;
+        out->sd_pct = sqrt(fmax(sum2 / out->used - out->mean_pct * out->mean_pct, 0));
+    }
+    long seen = out->used + out->unresolved;
+    out->beyond_frac = seen ? (double)(out->beyond + out->unresolved) / seen : 0;
+}
+
+/* ---- total error ---- */
+
+/* Temporal spread of one frame: half the variance of ln(x_a / x_b) over pixels resolved in both. */
+static double temporal_pct(const double *a, const double *b, long n, double lim_lo, double lim_hi)
+{
+    double sum = 0, sum2 = 0;
+    long m = 0;
+    for (long i = 0; i < n; i++) {
+        if (!(a[i] >= lim_lo && a[i] <= lim_hi && b[i] >= lim_lo && b[i] <= lim_hi))
+            continue;
+        double d = 100 * log(a[i] / b[i]);
+        sum += d, sum2 += d * d, m++;
+    }
+    if (m < 2)
+        return 0;
+    double mean = sum / m;
+    return sqrt(fmax(sum2 / m - mean * mean, 0) / 2);
+}
+
+void wdr_total_error_of(const double *x_hat_a, const double *x_hat_b, const double *x_hat_m, long n, int frames,
+                        double x, double x_lo, double x_hi, wdr_total_error *out)
+{
+    wdr_contrast ca, cm;
+    memset(out, 0, sizeof *out);
+    out->x = x;
+    out->frames = frames;
+    wdr_contrast_of(x_hat_a, n, x, x_lo, x_hi, &ca);
+    wdr_contrast_of(x_hat_m, n, x, x_lo, x_hi, &cm);
+    out->total_1_pct = ca.sd_pct;
+    out->total_m_pct = cm.sd_pct;
+    out->temporal_pct = temporal_pct(x_hat_a, x_hat_b, n, x_lo * pow(10, -UNRESOLVED_DECADES),
+                                     x_hi * pow(10, UNRESOLVED_DECADES));
+    out->fpn_pct = sqrt(fmax(ca.sd_pct * ca.sd_pct - out->temporal_pct * out->temporal_pct, 0));
+}
+
+/* ---- display-space error ---- */
+
+int wdr_display_map_init(wdr_display_map *d, const wdr_board *b, const char *op_name, char *err, int errlen)
+{
+    wdr_lum_stats st;
+    memset(d, 0, sizeof *d);
+    wdr_lum_stats_default(b->i_min_a, b->i_center_a, b->i_max_a, b->lum_per_amp, 0.18, &st);
+    d->lum_per_amp = b->lum_per_amp;
+    d->gamma = 2.2;
+    return wdr_operator_init(&d->op, op_name, &st, err, errlen);
+}
+
+double wdr_display_level(const wdr_display_map *d, double x)
+{
+    double t = wdr_operator_eval(&d->op, d->lum_per_amp * fmax(x, 0));
+    t = t > 0 ? (t < 1 ? t : 1) : 0;
+    return 255.0 * pow(t, 1.0 / d->gamma);
+}
+
+void wdr_display_error_of(const double *x_hat, long n, double x, const wdr_display_map *d, wdr_display_error *out)
+{
+    double want = wdr_display_level(d, x), sum = 0, sum_abs = 0, sum2 = 0;
+    long over = 0;
+    memset(out, 0, sizeof *out);
+    out->x_lo = out->x_hi = x;
+    for (long i = 0; i < n; i++) {
+        if (isnan(x_hat[i]))
+            continue;
+        double e = wdr_display_level(d, x_hat[i]) - want; /* an infinite x_hat shows as white: finite */
+        sum += e, sum_abs += fabs(e), sum2 += e * e;
+        over += fabs(e) > 1;
+        out->used++;
+    }
+    if (out->used) {
+        out->mean_levels = sum / out->used;
+        out->mean_abs_levels = sum_abs / out->used;
+        out->rms_levels = sqrt(sum2 / out->used);
+        out->frac_over_1 = (double)over / out->used;
+    }
+}
+
+static void pool_display(wdr_display_error *acc, const wdr_display_error *e)
+{
+    double w0 = (double)acc->used, w1 = (double)e->used, w = w0 + w1;
+    if (w1 == 0)
+        return;
+    acc->mean_levels = (acc->mean_levels * w0 + e->mean_levels * w1) / w;
+    acc->mean_abs_levels = (acc->mean_abs_levels * w0 + e->mean_abs_levels * w1) / w;
+    acc->rms_levels = sqrt((acc->rms_levels * acc->rms_levels * w0 + e->rms_levels * e->rms_levels * w1) / w);
+    acc->frac_over_1 = (acc->frac_over_1 * w0 + e->frac_over_1 * w1) / w;
+    acc->used += e->used;
+    acc->x_hi = fmax(acc->x_hi, e->x_hi);
+}
+
+int wdr_display_by_decade(const wdr_display_error *e, int n, wdr_display_error *out, int max_out)
+{
+    int m = 0;
+    double cur = NAN;
+    for (int k = 0; k < n; k++) {
+        double dec = floor(log10(e[k].x_lo) + 1e-9);
+        if (dec != cur) {
+            if (m == max_out)
+                break;
+            cur = dec;
+            out[m] = e[k];
+            out[m].x_lo = pow(10, dec), out[m].x_hi = pow(10, dec + 1);
+            m++;
+            continue;
+        }
+        double keep_hi = out[m - 1].x_hi;
+        pool_display(&out[m - 1], &e[k]);
+        out[m - 1].x_hi = keep_hi;
+    }
+    return m;
+}
+
+/* ---- quantisation floor ---- */
+
+double wdr_quant_floor_pct(double log_slope_codes, double dac_step_codes)
+{
+    double q = sqrt(2 * (1 + dac_step_codes * dac_step_codes) / 12);
+    return 100 * q / fmax(fabs(log_slope_codes), 1e-12);
+}
+
+/* ---- the older per-frame summary ---- */
 
 static void accumulate(wdr_fpn_stats *s, double e, double *sum, double *sum2)
 {

@@ -65,7 +65,7 @@ static double pixel_response(const wdr_cal_result *res, long i, double x)
         return code_for_current(res, i, x);
     if (res->model == WDR_MODEL_SPLINE) {
         wdr_pchip c;
-        return wdr_pchip_init(&c, res->nominal.curve.lx, p, res->nominal.curve.n) ? 0 : wdr_pchip_eval(&c, log(x));
+        return wdr_pchip_init_ends(&c, res->nominal.curve.lx, p, res->nominal.curve.n, res->nominal.end_ratio) ? 0 : wdr_pchip_eval(&c, log(x));
     }
     if (res->model == WDR_MODEL_SIMPLE3) {
         wdr_simple3 m = {p[0], p[1], p[2], p[3], res->x_scale};
@@ -82,7 +82,7 @@ static void sample_codes(const wdr_cal_result *res, long i, const double *xs, do
     if (res->model == WDR_MODEL_SPLINE) { /* one curve for all samples */
         wdr_pchip c;
         const double *p = res->params + i * res->n_params;
-        int bad = wdr_pchip_init(&c, res->nominal.curve.lx, p, res->nominal.curve.n);
+        int bad = wdr_pchip_init_ends(&c, res->nominal.curve.lx, p, res->nominal.curve.n, res->nominal.end_ratio);
         for (int k = 0; k < m; k++)
             ys[k] = bad ? 0 : wdr_pchip_eval(&c, log(xs[k]));
         return;
