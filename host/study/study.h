@@ -35,15 +35,16 @@ typedef struct study_point {
 typedef struct study_result {
     int ok;
     char why[200];               /* when !ok: what failed */
-    /* accuracy, % of contrast (sd across pixels of (x_hat - x)/x) over the requested range */
+    /* accuracy, % of contrast (100 sd across pixels of ln(x_hat / x), cal_metrics.h) over the range */
     double worst_total_pct, median_total_pct; /* one image of frames_img frames, noise on */
     double worst_fpn_pct, median_fpn_pct;     /* the same image without temporal noise */
-    double worst_temporal_pct;                /* sd of the total error minus the FPN-alone error */
+    double worst_temporal_pct;                /* 100 sd of ln(x_total / x_fpn): the temporal part */
     double floor_pct, floor_median_pct;       /* quantisation floor from the response slope */
     double floor_adc_pct;                     /* the ADC's share of the floor (worst point) */
     double display_levels;                    /* worst rms display error, 8-bit levels (gamma 2.2) */
     double display_off1_frac;                 /* share of pixel readings off by more than 1 level */
     double flagged_frac;                      /* share of pixels the calibration flagged */
+    double beyond_frac;                       /* worst share of readings past the curve's ends */
     /* costs: modelled from the board description */
     double t_reset_s, t_ramp_s, t_readout_s, frame_s;
     double image_s;                           /* frames averaged in the image x frame time */

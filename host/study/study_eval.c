@@ -174,14 +174,15 @@ static void calib_free(calib *c)
     free(c->table);
 }
 
-/* ---- judging ---- */
+/* ---- judging (the metrics of cal_metrics.h) ---- */
 
 typedef struct judge {
     long np;
     float *frame, *acc;
-    double *rel_fpn, *rel_tot;
+    double *x_fpn, *x_tot;
     double fpn[N_EVAL], tot[N_EVAL], floor_pct[N_EVAL];
     long off1, readings;
+    wdr_display_map display;
 } judge;
 
 /* Median code of the array, analog (no ADC or DAC steps, no temporal noise), at current x. */
@@ -192,13 +193,12 @@ static int median_code(study_chip *chip, double x, float *frame, long np, double
         rc = wdr_sim_render_float(chip->sim, 5, frame);
     if (rc)
         return rc;
-    long below = 0; /* quickselect would do; a sort keeps it simple at study sizes */
     double lo = INFINITY, hi = -INFINITY;
     for (long i = 0; i < np; i++)
         lo = fmin(lo, frame[i]), hi = fmax(hi, frame[i]);
     for (int it = 0; it < 60; it++) { /* bisection on the value: the median without a copy */
         double mid = 0.5 * (lo + hi);
-        below = 0;
+        long below = 0;
         for (long i = 0; i < np; i++)
             below += frame[i] <= mid;
         *(below >= np / 2 ? &hi : &lo) = mid;
@@ -207,9 +207,9 @@ static int median_code(study_chip *chip, double x, float *frame, long np, double
     return WDR_OK;
 }
 
-/* The quantisation floor at x: one ADC code and one DAC step (as ADC codes through the source
- * follower), each uniform (sd q / sqrt 12), over the array's response slope |dy/d ln x| measured
- * on the chip (median pixel, analog, +-5 % in current). */
+/* The quantisation floor at x (wdr_quant_floor_pct): one ADC code and one DAC step, as ADC codes
+ * through the source follower, over the array's response slope |dy/d ln x| measured on the chip
+ * (median pixel, analog, +-5 % in current), not taken from the model under test. */
 static int quant_floor(study_chip *chip, const study_point *p, double x, float *frame, long np, double *total,
                        double *adc_only)
 {
@@ -229,9 +229,8 @@ static int quant_floor(study_chip *chip, const study_point *p, double x, float *
     double dac_v = (b->dac_hi_v - b->dac_lo_v) / ((1u << b->dac_bits) - 1u);
     if (p->timing == WDR_TIMING_UNIFORM) /* a clock tick moves the ramp by its mean step at least */
         dac_v = fmax(dac_v, chip->ramp_span_v / b->dac_uniform_entries);
-    double q_dac = dac_v * chip->sf_gain * b->adc_gain / adc_lsb_v;
-    *total = 100 * sqrt((1 + q_dac * q_dac) / 12) / slope;
-    *adc_only = 100 * sqrt(1.0 / 12) / slope;
+    *total = wdr_quant_floor_pct(slope, dac_v * chip->sf_gain * b->adc_gain / adc_lsb_v);
+    *adc_only = wdr_quant_floor_pct(slope, 0);
     return WDR_OK;
 }
 
@@ -254,24 +253,19 @@ static int images_at(study_chip *chip, const study_point *p, double x, int k, ju
 
 static double sd(double s1, double s2, long n) { return n > 1 ? sqrt(fmax(0, (s2 - s1 * s1 / n) / (n - 1))) : 0; }
 
-/* Temporal part (sd across pixels of the total error minus the FPN-alone error) and display error at x, from both images' errors. */
-static void pixel_figures(const study_chip *chip, double x, judge *j, double *temporal, double *display_rms)
+/* The temporal part, study-specific: the simulator can show the same chip without temporal
+ * noise, so the part is measured directly, 100 * sd of ln(x_tot / x_fpn), rather than inferred
+ * from two noisy frames (wdr_total_error_of does that for boards). */
+static double temporal_part(const judge *j)
 {
-    double t1 = 0, t2 = 0, d2 = 0, lum = chip->b.lum_per_amp;
-    double ref = 255 * pow(wdr_operator_eval(&chip->op, lum * x), 1 / DISPLAY_GAMMA);
+    double t1 = 0, t2 = 0;
     long n = 0;
-    for (long i = 0; i < j->np; i++) {
-        double a = j->rel_fpn[i] / 100, b = j->rel_tot[i] / 100; /* wdr_fpn_frame gives % */
-        if (!isfinite(a) || !isfinite(b))
-            continue;
-        double t = b - a; /* as wdr_fpn_stats.sd_pct measures the total, so the parts compare */
-        double d = 255 * pow(wdr_operator_eval(&chip->op, lum * x * (1 + b)), 1 / DISPLAY_GAMMA) - ref;
-        t1 += t, t2 += t * t, d2 += d * d, n++;
-        j->off1 += fabs(d) > 1;
-    }
-    j->readings += n;
-    *temporal = 100 * sd(t1, t2, n);
-    *display_rms = n ? sqrt(d2 / n) : NAN;
+    for (long i = 0; i < j->np; i++)
+        if (j->x_fpn[i] > 0 && j->x_tot[i] > 0 && isfinite(j->x_fpn[i]) && isfinite(j->x_tot[i])) {
+            double t = log(j->x_tot[i] / j->x_fpn[i]);
+            t1 += t, t2 += t * t, n++;
+        }
+    return 100 * sd(t1, t2, n);
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -288,41 +282,54 @@ static double median(const double *v, int n)
     return n % 2 ? s[n / 2] : 0.5 * (s[n / 2 - 1] + s[n / 2]);
 }
 
+/* Every figure at one current x. */
+static int judge_at(const study *s, const study_point *p, study_chip *chip, calib *c, judge *j, int k,
+                    study_result *r)
+{
+    double x = s->range_lo * pow(s->range_hi / s->range_lo, (k + 0.37) / N_EVAL), fl, fa;
+    const wdr_nominal *nom = &c->res.nominal;
+    wdr_contrast cf, ct;
+    wdr_display_error de;
+    int rc = images_at(chip, p, x, k, j);
+    if (!rc)
+        rc = wdr_fpn_recover(&c->res, &c->tab, WDR_PATH_TABLE, j->frame, c->res.flags, j->x_fpn);
+    if (!rc)
+        rc = wdr_fpn_recover(&c->res, &c->tab, WDR_PATH_TABLE, j->acc, c->res.flags, j->x_tot);
+    if (!rc)
+        rc = quant_floor(chip, p, x, j->frame, j->np, &fl, &fa);
+    if (rc)
+        return rc;
+    wdr_contrast_of(j->x_fpn, j->np, x, nom->x_lo, nom->x_hi, &cf);
+    wdr_contrast_of(j->x_tot, j->np, x, nom->x_lo, nom->x_hi, &ct);
+    wdr_display_error_of(j->x_tot, j->np, x, &j->display, &de);
+    j->fpn[k] = cf.sd_pct, j->tot[k] = ct.sd_pct, j->floor_pct[k] = fl;
+    j->off1 += lround(de.frac_over_1 * de.used), j->readings += de.used;
+    if (fl > r->floor_pct)
+        r->floor_pct = fl, r->floor_adc_pct = fa;
+    r->worst_fpn_pct = fmax(r->worst_fpn_pct, cf.sd_pct);
+    r->worst_total_pct = fmax(r->worst_total_pct, ct.sd_pct);
+    r->worst_temporal_pct = fmax(r->worst_temporal_pct, temporal_part(j));
+    r->display_levels = fmax(r->display_levels, de.rms_levels);
+    r->beyond_frac = fmax(r->beyond_frac, ct.beyond_frac);
+    return WDR_OK;
+}
+
 static int judge_point(const study *s, const study_point *p, study_chip *chip, calib *c, study_result *r)
 {
-    judge j = {.np = (long)chip->b.width * chip->b.height};
+    judge j = {.np = (long)chip->b.width * chip->b.height,
+               .display = {.op = chip->op, .lum_per_amp = chip->b.lum_per_amp, .gamma = DISPLAY_GAMMA}};
     j.frame = malloc(sizeof(float) * (size_t)j.np), j.acc = malloc(2 * sizeof(float) * (size_t)j.np);
-    j.rel_fpn = malloc(sizeof(double) * (size_t)j.np), j.rel_tot = malloc(sizeof(double) * (size_t)j.np);
-    int rc = j.frame && j.acc && j.rel_fpn && j.rel_tot ? WDR_OK : WDR_E_NOMEM;
-    r->worst_total_pct = r->worst_fpn_pct = r->worst_temporal_pct = r->floor_pct = r->display_levels = 0;
-    for (int k = 0; !rc && k < N_EVAL; k++) {
-        double x = s->range_lo * pow(s->range_hi / s->range_lo, (k + 0.37) / N_EVAL), temporal, disp, fl, fa;
-        wdr_fpn_stats sf, st;
-        rc = images_at(chip, p, x, k, &j);
-        if (!rc)
-            rc = wdr_fpn_frame(&c->res, &c->tab, WDR_PATH_TABLE, j.frame, x, c->res.flags, j.rel_fpn, &sf);
-        if (!rc)
-            rc = wdr_fpn_frame(&c->res, &c->tab, WDR_PATH_TABLE, j.acc, x, c->res.flags, j.rel_tot, &st);
-        if (!rc)
-            rc = quant_floor(chip, p, x, j.frame, j.np, &fl, &fa);
-        if (rc)
-            break;
-        pixel_figures(chip, x, &j, &temporal, &disp);
-        j.fpn[k] = sf.sd_pct, j.tot[k] = st.sd_pct, j.floor_pct[k] = fl;
-        if (fl > r->floor_pct)
-            r->floor_pct = fl, r->floor_adc_pct = fa;
-        r->worst_fpn_pct = fmax(r->worst_fpn_pct, sf.sd_pct);
-        r->worst_total_pct = fmax(r->worst_total_pct, st.sd_pct);
-        r->worst_temporal_pct = fmax(r->worst_temporal_pct, temporal);
-        r->display_levels = fmax(r->display_levels, disp);
-    }
+    j.x_fpn = malloc(sizeof(double) * (size_t)j.np), j.x_tot = malloc(sizeof(double) * (size_t)j.np);
+    int rc = j.frame && j.acc && j.x_fpn && j.x_tot ? WDR_OK : WDR_E_NOMEM;
+    for (int k = 0; !rc && k < N_EVAL; k++)
+        rc = judge_at(s, p, chip, c, &j, k, r);
     if (!rc) {
         r->median_fpn_pct = median(j.fpn, N_EVAL), r->median_total_pct = median(j.tot, N_EVAL);
         r->floor_median_pct = median(j.floor_pct, N_EVAL);
         r->display_off1_frac = j.readings ? (double)j.off1 / (double)j.readings : NAN;
     } else
         snprintf(r->why, sizeof r->why, "judging: %s", wdr_strerror(rc));
-    free(j.frame), free(j.acc), free(j.rel_fpn), free(j.rel_tot);
+    free(j.frame), free(j.acc), free(j.x_fpn), free(j.x_tot);
     return rc;
 }
 

@@ -248,6 +248,7 @@ static cJSON *point_json(const study *s, int i)
     cJSON_AddNumberToObject(a, "display_levels", r->display_levels);
     cJSON_AddNumberToObject(a, "display_off1_frac", r->display_off1_frac);
     cJSON_AddNumberToObject(a, "flagged_frac", r->flagged_frac);
+    cJSON_AddNumberToObject(a, "beyond_curve_frac", r->beyond_frac);
     cJSON *c = cJSON_AddObjectToObject(j, "cost");
     cJSON_AddNumberToObject(c, "reset_s", r->t_reset_s);
     cJSON_AddNumberToObject(c, "ramp_s", r->t_ramp_s);
