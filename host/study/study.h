@@ -122,14 +122,15 @@ double study_acc_value(const study_result *r, int a);
 double study_cost_value(const study_result *r, int c);
 /* Indices of the Pareto front of accuracy a against cost c, cheapest first. @return count */
 int study_front(const study *s, int a, int c, int *idx);
-/* Index of the cheapest ok point with total worst error <= target_pct by cost c; -1 if none. */
-int study_cheapest(const study *s, int c, double target_pct);
+/* Index of the cheapest ok point with accuracy figure a <= target_pct by cost c; -1 if none. */
+int study_cheapest(const study *s, int a, int c, double target_pct);
 
 /* ---- study_report.c: table, fronts, JSON, plots ---- */
 
 void study_print_table(const study *s);
 void study_print_fronts(const study *s);
-/* The cheapest points meeting target_pct, or why none does (the limiting knob). */
+/* The cheapest points meeting target_pct, by the total error and by FPN alone (what calibration
+ * reaches once the image's temporal noise is averaged away), or why none does (the limiting knob). */
 void study_print_target(const study *s, double target_pct);
 /* study.json in outdir (and on stdout with to_stdout). @return a sysexits code */
 int study_write_json(const study *s, const char *outdir, double target_pct, double wall_s, int to_stdout);

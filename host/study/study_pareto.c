@@ -61,16 +61,16 @@ int study_front(const study *s, int a, int c, int *idx)
     return m;
 }
 
-int study_cheapest(const study *s, int c, double target_pct)
+int study_cheapest(const study *s, int a, int c, double target_pct)
 {
     int best = -1;
     for (int i = 0; i < s->n; i++) {
         const study_result *r = &s->res[i];
-        if (!r->ok || !(r->worst_total_pct <= target_pct))
+        if (!r->ok || !(study_acc_value(r, a) <= target_pct))
             continue;
         double ci = study_cost_value(r, c);
         if (best < 0 || ci < study_cost_value(&s->res[best], c) ||
-            (ci == study_cost_value(&s->res[best], c) && r->worst_total_pct < s->res[best].worst_total_pct))
+            (ci == study_cost_value(&s->res[best], c) && study_acc_value(r, a) < study_acc_value(&s->res[best], a)))
             best = i;
     }
     return best;

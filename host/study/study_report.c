@@ -124,7 +124,7 @@ static const char *const knob_names[N_KNOBS] = {"adc-bits", "dac-bits", "convert
 /* For every knob with more than one value: the best worst-total error reached at each value. */
 static void print_knob_table(const study *s)
 {
-    printf("what each knob buys (best worst-total error among the points with that value):\n");
+    printf("\nwhat each knob buys (best worst-total error among the points with that value):\n");
     for (int k = 0; k < N_KNOBS; k++) {
         char vals[32][64];
         double best[32];
@@ -148,57 +148,63 @@ static void print_knob_table(const study *s)
     }
 }
 
-/* The most accurate point, and the part of its error that keeps it above the target. */
-static void print_limit(const study *s, double target)
+/* The most accurate point by figure a, and the part of its error that keeps it above the target. */
+static void print_limit(const study *s, int a, double target)
 {
     int b = -1;
     for (int i = 0; i < s->n; i++)
-        if (s->res[i].ok && (b < 0 || s->res[i].worst_total_pct < s->res[b].worst_total_pct))
+        if (s->res[i].ok && (b < 0 || study_acc_value(&s->res[i], a) < study_acc_value(&s->res[b], a)))
             b = i;
     if (b < 0) {
-        printf("no point could be evaluated\n");
+        printf("  no point could be evaluated\n");
         return;
     }
     const study_result *r = &s->res[b];
     const study_point *p = &s->pts[b];
     char label[256];
     study_point_label(p, label, sizeof label);
-    printf("no point reaches %.3g %%; the most accurate is #%d %s at %.3g %% (FPN alone %.3g %%, temporal %.3g %%, "
-           "quantisation floor %.3g %%, of which the ADC %.3g %%)\n", target, b, label, r->worst_total_pct,
-           r->worst_fpn_pct, r->worst_temporal_pct, r->floor_pct, r->floor_adc_pct);
-    if (r->floor_adc_pct > target)
-        printf("limiting knob: adc-bits (%d): one ADC code alone is %.3g %% of contrast where the response is "
+    printf("  none does; the most accurate is #%d %s at %.3g %% (total %.3g %%, FPN alone %.3g %%, temporal %.3g %%, "
+           "quantisation floor %.3g %%, of which the ADC %.3g %%)\n", b, label, study_acc_value(r, a),
+           r->worst_total_pct, r->worst_fpn_pct, r->worst_temporal_pct, r->floor_pct, r->floor_adc_pct);
+    if (a == STUDY_ACC_TOTAL && r->worst_temporal_pct > target)
+        printf("  limiting knob: image-frames (%d): the image's temporal noise alone is %.3g %%, and it falls only "
+               "as 1/sqrt(frames)\n", p->frames_img, r->worst_temporal_pct);
+    else if (r->floor_adc_pct > target)
+        printf("  limiting knob: adc-bits (%d): one ADC code alone is %.3g %% of contrast where the response is "
                "flattest; more bits, or converter-ranges fit\n", p->adc_bits, r->floor_adc_pct);
     else if (r->floor_pct > target)
-        printf("limiting knob: dac-bits (%d) or the ramp timing: the DAC step sets a floor of %.3g %%\n", p->dac_bits,
+        printf("  limiting knob: dac-bits (%d) or the ramp timing: the DAC step sets a floor of %.3g %%\n", p->dac_bits,
                r->floor_pct);
-    else if (r->worst_temporal_pct > target)
-        printf("limiting knob: image-frames (%d): temporal noise alone is %.3g %%\n", p->frames_img,
-               r->worst_temporal_pct);
     else
-        printf("limiting knob: the calibration (model %s, form %s, levels, frames %d): FPN after correction is %.3g %% "
-               "above a floor of %.3g %%\n", model_name(p->model), form_name(p->form), p->frames_cal, r->worst_fpn_pct,
-               r->floor_pct);
+        printf("  limiting knob: the calibration (model %s, form %s, levels, frames %d): FPN after correction is "
+               "%.3g %% above a floor of %.3g %%\n", model_name(p->model), form_name(p->form), p->frames_cal,
+               r->worst_fpn_pct, r->floor_pct);
 }
 
-void study_print_target(const study *s, double target)
+static void print_cheapest(const study *s, int a, double target)
 {
-    printf("\ncheapest designs with worst total contrast error <= %.3g %% over %.3g..%.3g A:\n", target, s->range_lo,
+    printf("\ncheapest designs with %s <= %.3g %% over %.3g..%.3g A:\n", study_acc_name(a), target, s->range_lo,
            s->range_hi);
     int found = 0;
     for (int c = 0; c < STUDY_COST_COUNT; c++) {
-        int i = study_cheapest(s, c, target);
+        int i = study_cheapest(s, a, c, target);
         if (i < 0)
             continue;
         char label[256];
         study_point_label(&s->pts[i], label, sizeof label);
-        printf("  by %-22s %10.4g %-9s (%s): #%d %s, worst %.3g %%\n", study_cost_name(c),
+        printf("  by %-22s %10.4g %-9s (%s): #%d %s, total %.3g %%, FPN alone %.3g %%\n", study_cost_name(c),
                study_cost_value(&s->res[i], c), study_cost_unit(c), study_cost_measured(c) ? "measured" : "modelled", i,
-               label, s->res[i].worst_total_pct);
+               label, s->res[i].worst_total_pct, s->res[i].worst_fpn_pct);
         found = 1;
     }
     if (!found)
-        print_limit(s, target);
+        print_limit(s, a, target);
+}
+
+void study_print_target(const study *s, double target)
+{
+    print_cheapest(s, STUDY_ACC_TOTAL, target);
+    print_cheapest(s, STUDY_ACC_FPN, target);
     print_knob_table(s);
 }
 
@@ -309,13 +315,16 @@ int study_write_json(const study *s, const char *outdir, double target, double w
     cJSON_AddItemToObject(j, "cost_kinds", costs_json());
     if (target > 0) {
         cJSON *t = cJSON_AddObjectToObject(j, "target");
-        cJSON_AddNumberToObject(t, "worst_total_pct", target);
-        for (int c = 0; c < STUDY_COST_COUNT; c++) {
-            int i = study_cheapest(s, c, target);
-            if (i >= 0)
-                cJSON_AddNumberToObject(t, study_cost_name(c), i);
-            else
-                cJSON_AddNullToObject(t, study_cost_name(c));
+        cJSON_AddNumberToObject(t, "pct", target);
+        for (int a = STUDY_ACC_TOTAL; a <= STUDY_ACC_FPN; a++) {
+            cJSON *by = cJSON_AddObjectToObject(t, study_acc_name(a)); /* cheapest point index per cost, or null */
+            for (int c = 0; c < STUDY_COST_COUNT; c++) {
+                int i = study_cheapest(s, a, c, target);
+                if (i >= 0)
+                    cJSON_AddNumberToObject(by, study_cost_name(c), i);
+                else
+                    cJSON_AddNullToObject(by, study_cost_name(c));
+            }
         }
     }
     cJSON *pts = cJSON_AddArrayToObject(j, "points");

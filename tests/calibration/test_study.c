@@ -95,7 +95,10 @@ static void fronts_are_cheapest_first_and_improving(void **state)
         }
     /* 12 bits read out 4x slower than 10 (single-slope column ADC) */
     assert_double_equal(s.res[1].t_readout_s, 4 * s.res[0].t_readout_s, 1e-12);
-    assert_int_equal(study_cheapest(&s, STUDY_COST_FRAME, 1e-6), -1);
+    assert_int_equal(study_cheapest(&s, STUDY_ACC_TOTAL, STUDY_COST_FRAME, 1e-6), -1);
+    int i = study_cheapest(&s, STUDY_ACC_TOTAL, STUDY_COST_FRAME, 1e6); /* every point meets it */
+    for (int q = 0; q < s.n; q++)
+        assert_true(s.res[q].image_s >= s.res[i].image_s);
     free_study(&s);
 }
 
