@@ -8,6 +8,7 @@
 
 #define STUDY_MAX_POINTS 4096
 #define STUDY_OP_PARAMS 128
+#define STUDY_MAX_TARGETS 4
 
 enum study_levels_choice {
     STUDY_LEVELS_LOG = 0,   /* log-spaced over the requested range: cheap, deterministic */
@@ -132,10 +133,12 @@ void study_print_fronts(const study *s);
 /* The cheapest points meeting target_pct, by the total error and by FPN alone (what calibration
  * reaches once the image's temporal noise is averaged away), or why none does (the limiting knob). */
 void study_print_target(const study *s, double target_pct);
-/* study.json in outdir (and on stdout with to_stdout). @return a sysexits code */
-int study_write_json(const study *s, const char *outdir, double target_pct, double wall_s, int to_stdout);
-/* study_vs_frame_time.png, study_vs_cal_time.png, study_vs_table_bytes.png. @return a sysexits code */
-int study_plot(const study *s, const char *outdir, double target_pct);
+/* study.json in outdir (and on stdout with to_stdout), with the answer for each of n targets.
+ * @return a sysexits code */
+int study_write_json(const study *s, const char *outdir, const double *targets, int n, double wall_s, int to_stdout);
+/* study_vs_image_time.png, study_vs_cal_time.png, study_vs_table_bytes.png, each with a line per
+ * target. @return a sysexits code */
+int study_plot(const study *s, const char *outdir, const double *targets, int n);
 /* A point's knobs in one line (for tables and messages). */
 void study_point_label(const study_point *p, char *out, int outlen);
 

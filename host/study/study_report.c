@@ -302,7 +302,25 @@ static cJSON *costs_json(void)
     return c;
 }
 
-int study_write_json(const study *s, const char *outdir, double target, double wall_s, int to_stdout)
+static cJSON *target_json(const study *s, double target)
+{
+    cJSON *t = cJSON_CreateObject();
+    cJSON_AddNumberToObject(t, "pct", target);
+    for (int a = STUDY_ACC_TOTAL; a <= STUDY_ACC_FPN; a++) {
+        cJSON *by = cJSON_AddObjectToObject(t, study_acc_name(a)); /* cheapest point index per cost, or null */
+        for (int c = 0; c < STUDY_COST_COUNT; c++) {
+            int i = study_cheapest(s, a, c, target);
+            if (i >= 0)
+                cJSON_AddNumberToObject(by, study_cost_name(c), i);
+            else
+                cJSON_AddNullToObject(by, study_cost_name(c));
+        }
+    }
+    return t;
+}
+
+int study_write_json(const study *s, const char *outdir, const double *targets, int n_targets, double wall_s,
+                     int to_stdout)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "board", s->board);
@@ -313,20 +331,9 @@ int study_write_json(const study *s, const char *outdir, double target, double w
     cJSON_AddNumberToObject(j, "jobs", s->jobs);
     cJSON_AddNumberToObject(j, "wall_s", wall_s);
     cJSON_AddItemToObject(j, "cost_kinds", costs_json());
-    if (target > 0) {
-        cJSON *t = cJSON_AddObjectToObject(j, "target");
-        cJSON_AddNumberToObject(t, "pct", target);
-        for (int a = STUDY_ACC_TOTAL; a <= STUDY_ACC_FPN; a++) {
-            cJSON *by = cJSON_AddObjectToObject(t, study_acc_name(a)); /* cheapest point index per cost, or null */
-            for (int c = 0; c < STUDY_COST_COUNT; c++) {
-                int i = study_cheapest(s, a, c, target);
-                if (i >= 0)
-                    cJSON_AddNumberToObject(by, study_cost_name(c), i);
-                else
-                    cJSON_AddNullToObject(by, study_cost_name(c));
-            }
-        }
-    }
+    cJSON *tj = cJSON_AddArrayToObject(j, "targets");
+    for (int t = 0; t < n_targets; t++)
+        cJSON_AddItemToArray(tj, target_json(s, targets[t]));
     cJSON *pts = cJSON_AddArrayToObject(j, "points");
     for (int i = 0; i < s->n; i++)
         cJSON_AddItemToArray(pts, point_json(s, i));
@@ -371,12 +378,12 @@ static int write_data(const study *s, int c, const char *dir, char *all, char *f
 }
 
 static int plot_one(const study *s, int c, const char *file, const char *xlabel, double xscale, const char *outdir,
-                    const char *dir, double target)
+                    const char *dir, const double *targets, int n_targets)
 {
     char all[1024], front[1024], script[8192], err[512];
     if (!write_data(s, c, dir, all, front, sizeof all))
         return study_fail(EX_CANTCREAT, "%s: cannot write plot data", dir);
-    snprintf(script, sizeof script,
+    int len = snprintf(script, sizeof script,
              "set terminal pngcairo size 1000,640\nset output '%s/%s'\nset logscale xy\nset grid\nset key outside\n"
              "set xlabel '%s'\nset ylabel 'worst contrast error over %.3g..%.3g A (%%)'\n"
              "set title 'What accuracy costs: %s (%d points, %s)'\n"
@@ -384,29 +391,32 @@ static int plot_one(const study *s, int c, const char *file, const char *xlabel,
              "'%s' index 0 u ($1*%g):2 w steps lw 2 lc rgb '#c00000' t 'front: total (FPN + temporal)', "
              "'%s' index 0 u ($1*%g):2 w p pt 7 ps 1 lc rgb '#c00000' notitle, "
              "'%s' index 1 u ($1*%g):2 w steps lw 1.5 dt 2 lc rgb '#0050c0' t 'front: FPN alone', "
-             "'%s' index 2 u ($1*%g):2 w steps lw 1.5 dt 3 lc rgb '#208020' t 'front: quantisation floor', "
-             "%g w l lc rgb 'black' dt 4 t 'target %.3g %%'\n",
+             "'%s' index 2 u ($1*%g):2 w steps lw 1.5 dt 3 lc rgb '#208020' t 'front: quantisation floor'",
              outdir, file, xlabel, s->range_lo, s->range_hi, s->pts[0].op, s->n,
              study_cost_measured(c) ? "measured here" : "modelled from the board", all, xscale, front, xscale, front,
-             xscale, front, xscale, front, xscale, target > 0 ? target : 1.0, target > 0 ? target : 1.0);
+             xscale, front, xscale, front, xscale);
+    for (int t = 0; t < n_targets && len < (int)sizeof script - 64; t++)
+        len += snprintf(script + len, sizeof script - (size_t)len, ", %g w l lc rgb 'black' dt 4 t 'target %.3g %%'",
+                        targets[t], targets[t]);
+    snprintf(script + len, sizeof script - (size_t)len, "\n");
     int rc = wdr_gnuplot_run(script, err, sizeof err);
     return rc ? study_fail(rc < 0 && strstr(err, "gnuplot") ? EX_UNAVAILABLE : EX_SOFTWARE, "plot: %s", err) : EX_OK;
 }
 
-int study_plot(const study *s, const char *outdir, double target)
+int study_plot(const study *s, const char *outdir, const double *targets, int n_targets)
 {
     char dir[1024];
     if (wdr_plot_tmpdir(dir, sizeof dir))
         return study_fail(EX_CANTCREAT, "no temporary directory for plot data");
-    int rc = plot_one(s, STUDY_COST_FRAME, "study_vs_frame_time.png", "time per image (ms; modelled: image frames x (reset + ramp + readout))",
-                      1e3, outdir, dir, target);
+    int rc = plot_one(s, STUDY_COST_FRAME, "study_vs_image_time.png", "time per image (ms; modelled: image frames x (reset + ramp + readout))",
+                      1e3, outdir, dir, targets, n_targets);
     if (rc == EX_OK)
         rc = plot_one(s, STUDY_COST_CAL, "study_vs_cal_time.png",
                       "calibration time on the board (s; modelled: (levels + dark) x frames x frame time)", 1, outdir,
-                      dir, target);
+                      dir, targets, n_targets);
     if (rc == EX_OK)
         rc = plot_one(s, STUDY_COST_TABLE, "study_vs_table_bytes.png", "table bytes per pixel (firmware format)", 1,
-                      outdir, dir, target);
+                      outdir, dir, targets, n_targets);
     wdr_plot_tmpdir_remove(dir);
     return rc;
 }

@@ -320,6 +320,7 @@ static int form_valid(const study_point *p)
 
 static void fill_point(const space *sp, const int *i, study_point *p)
 {
+    memset(p, 0, sizeof *p); /* padding too: points are compared bytewise */
     *p = (study_point){.adc_bits = sp->adc[i[D_ADC]], .adc_lo_v = sp->adc_lo[i[D_ADCR]], .adc_hi_v = sp->adc_hi[i[D_ADCR]],
                        .dac_bits = sp->dac[i[D_DAC]], .dac_lo_v = sp->dac_lo[i[D_DACR]], .dac_hi_v = sp->dac_hi[i[D_DACR]],
                        .fit_ranges = sp->fit[i[D_FIT]], .timing = sp->tim[i[D_TIM]],
@@ -350,6 +351,8 @@ int study_expand(const study_knobs *k, study *s, int *skipped)
         int dup = 0;
         for (int d = 0; d < D_COUNT; d++)
             dup |= idx[d] > 0 && !knob_acts(&p, d);
+        for (int q = s->n - 1; !dup && q >= 0; q--) /* "auto" may name a form also listed */
+            dup = !memcmp(&s->pts[q], &p, sizeof p);
         if (!dup && !form_valid(&p))
             ++*skipped;
         else if (!dup && s->n == STUDY_MAX_POINTS)

@@ -14,8 +14,8 @@
 typedef struct study_opts {
     study_knobs k;
     const char *board, *file, *outdir;
-    double lo, hi, target, fps;
-    int jobs, json, plots;
+    double lo, hi, fps, target[STUDY_MAX_TARGETS];
+    int jobs, json, plots, n_targets;
     unsigned long seed;
 } study_opts;
 
@@ -26,6 +26,24 @@ static int parse_range(const char *v, double *lo, double *hi)
     *hi = *e == ':' ? strtod(e + 1, &e) : NAN;
     if (*e || !(*lo > 0) || !(*hi > *lo * 1.5) || !(*hi < 1))
         return wdrctl_fail(EX_USAGE, "study: --range '%s' must be LO:HI in amperes with 0 < LO < HI < 1", v);
+    return EX_OK;
+}
+
+static int parse_number(const char *opt, const char *v, double lo, double hi, double *out);
+
+/* "1%,3%": up to STUDY_MAX_TARGETS worst contrast errors, each answered from the same points. */
+static int parse_targets(const char *v, study_opts *o)
+{
+    char buf[256], *save = NULL;
+    snprintf(buf, sizeof buf, "%s", v);
+    o->n_targets = 0;
+    for (char *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+        if (o->n_targets == STUDY_MAX_TARGETS)
+            return wdrctl_fail(EX_USAGE, "study: --target: at most %d targets", STUDY_MAX_TARGETS);
+        int rc = parse_number("--target", t, 1e-3, 1e4, &o->target[o->n_targets++]);
+        if (rc != EX_OK)
+            return rc;
+    }
     return EX_OK;
 }
 
@@ -52,7 +70,7 @@ static int set_option(int c, const char *a, study_opts *o)
     case 'j': o->json = 1; return EX_OK;
     case 'N': o->plots = 0; return EX_OK;
     case 'r': return parse_range(a, &o->lo, &o->hi);
-    case 't': return parse_number("--target", a, 1e-3, 1e4, &o->target);
+    case 't': return parse_targets(a, o);
     case 'R': return parse_number("--fps", a, 1e-3, 1e5, &o->fps);
     case 'J': { int rc = parse_number("--jobs", a, 1, 64, &v); o->jobs = (int)v; return rc; }
     case 's': o->seed = strtoul(a, NULL, 0); return EX_OK;
@@ -123,17 +141,17 @@ static int outputs(const study *s, const study_opts *o, double wall)
     if (!o->json) {
         study_print_table(s);
         study_print_fronts(s);
-        if (o->target > 0)
-            study_print_target(s, o->target);
+        for (int t = 0; t < o->n_targets; t++)
+            study_print_target(s, o->target[t]);
         printf("\n%d points in %.1f s on %d jobs (%.2f s per point per job)\n", s->n, wall, s->jobs,
                wall * s->jobs / s->n);
     }
-    int rc = study_write_json(s, o->outdir, o->target, wall, o->json);
+    int rc = study_write_json(s, o->outdir, o->target, o->n_targets, wall, o->json);
     if (rc == EX_OK && o->plots)
-        rc = study_plot(s, o->outdir, o->target);
+        rc = study_plot(s, o->outdir, o->target, o->n_targets);
     if (rc == EX_OK)
         fprintf(stderr, "wdrctl: study in %s (study.json%s)\n", o->outdir,
-                o->plots ? ", study_vs_frame_time.png, study_vs_cal_time.png, study_vs_table_bytes.png" : "");
+                o->plots ? ", study_vs_image_time.png, study_vs_cal_time.png, study_vs_table_bytes.png" : "");
     return rc;
 }
 
