@@ -306,7 +306,7 @@ static int load_effects(scene_ctx *c, const cJSON *root)
         int e = wdr_effect_from_name(it->string);
         if (e < 0)
             return fail(c, WDR_E_INVAL, field, "unknown effect (known: mismatch, dark, shot, ktc, read, dac_quant, "
-                                               "adc_quant, leakage, clipping)");
+                                               "adc_quant, leakage, clipping, defects)");
         int m = -1;
         for (int k = 0; k < 3 && cJSON_IsString(it); k++)
             m = strcmp(it->valuestring, modes[k]) ? m : k;
@@ -317,6 +317,70 @@ static int load_effects(scene_ctx *c, const cJSON *root)
         c->sc->effects[e] = (wdr_fx_mode)m;
     }
     return WDR_OK;
+}
+
+/* "defects": {"dead_ppm", "stuck_ppm", "hot_ppm", "saturated_ppm", "hot_A", "seed",
+ *              "pixels": [{"x", "y", "kind"}, ...]} (sim/SPEC.md) */
+static int load_defect_pixels(scene_ctx *c, const cJSON *list)
+{
+    wdr_sim_defects *d = &c->sc->defects;
+    int n = cJSON_GetArraySize(list);
+    long *index = calloc((size_t)(n ? n : 1), sizeof(long));
+    uint8_t *kind = calloc((size_t)(n ? n : 1), 1);
+    d->listed_index = index, d->listed_kind = kind;
+    if (!index || !kind)
+        return fail(c, WDR_E_NOMEM, "defects.pixels", "out of memory for %d pixels", n);
+    for (int j = 0; j < n; j++) {
+        const cJSON *px = cJSON_GetArrayItem(list, j);
+        char field[64];
+        snprintf(field, sizeof field, "defects.pixels[%d]", j);
+        const char *name = cJSON_IsObject(px) ? get_string(px, "kind") : NULL;
+        double x = -1, y = -1;
+        int rc = cJSON_IsObject(px) ? get_number(c, px, "x", field, 0, c->sc->width - 1, -1, &x) : WDR_E_INVAL;
+        if (!rc)
+            rc = get_number(c, px, "y", field, 0, c->sc->height - 1, -1, &y);
+        if (rc || x < 0 || y < 0 || x != floor(x) || y != floor(y))
+            return rc ? rc : fail(c, WDR_E_INVAL, field, "needs whole \"x\" and \"y\" on the sensor");
+        for (int k = 1; k < WDR_DEFECT_KINDS && name; k++)
+            if (!strcmp(name, wdr_defect_name(k)))
+                kind[j] = (uint8_t)k;
+        if (!kind[j])
+            return fail(c, WDR_E_INVAL, field, "kind '%s' unknown (known: dead, stuck, hot, saturated)",
+                        name ? name : "(missing)");
+        index[j] = (long)y * c->sc->width + (long)x;
+    }
+    d->n_listed = n;
+    return WDR_OK;
+}
+
+static int load_defects(scene_ctx *c, const cJSON *root)
+{
+    static const char *const keys[] = {"dead_ppm", "stuck_ppm", "hot_ppm", "saturated_ppm", "hot_A", "seed",
+                                       "pixels", NULL};
+    const cJSON *obj = cJSON_GetObjectItemCaseSensitive(root, "defects");
+    if (!obj)
+        return WDR_OK;
+    if (!cJSON_IsObject(obj))
+        return fail(c, WDR_E_INVAL, "defects", "must be an object (rates in ppm, \"pixels\")");
+    int rc = check_keys(c, obj, "defects.", keys);
+    wdr_sim_defects *d = &c->sc->defects;
+    c->sc->has_defects = 1;
+    for (int k = 1; !rc && k < WDR_DEFECT_KINDS; k++) {
+        char key[32], field[48];
+        snprintf(key, sizeof key, "%s_ppm", wdr_defect_name(k));
+        snprintf(field, sizeof field, "defects.%s", key);
+        rc = get_number(c, obj, key, field, 0, 1e6, 0, &d->ppm[k]);
+    }
+    if (!rc)
+        rc = get_number(c, obj, "hot_A", "defects.hot_A", 0, 1e-3, 0, &d->hot_amps);
+    double seed = 0;
+    if (!rc)
+        rc = get_number(c, obj, "seed", "defects.seed", 0, 9007199254740992.0, 0, &seed);
+    d->seed = (uint64_t)seed;
+    const cJSON *list = cJSON_GetObjectItemCaseSensitive(obj, "pixels");
+    if (!rc && list && !cJSON_IsArray(list))
+        return fail(c, WDR_E_INVAL, "defects.pixels", "must be an array of {\"x\", \"y\", \"kind\"}");
+    return !rc && list ? load_defect_pixels(c, list) : rc;
 }
 
 static int load_size(scene_ctx *c, const cJSON *root)
@@ -371,7 +435,7 @@ static int load_root(scene_ctx *c, const cJSON *root)
 {
     static const char *const keys[] = {"format", "version", "comment", "size", "illumination", "lum_to_amp",
                                        "exposure", "reference", "effects", "auto_tolerance_lsb", "chip_seed",
-                                       "frame_seed", NULL};
+                                       "frame_seed", "defects", NULL};
     const char *format = get_string(root, "format");
     if (format && strcmp(format, "wdrcam-scene"))
         return fail(c, WDR_E_INVAL, "format", "'%s' is not \"wdrcam-scene\"", format);
@@ -382,6 +446,8 @@ static int load_root(scene_ctx *c, const cJSON *root)
         rc = load_effects(c, root);
     if (!rc)
         rc = load_flags(c, root);
+    if (!rc)
+        rc = load_defects(c, root);
     if (!rc)
         rc = load_illumination(c, root);
     return rc ? rc : to_amps(c, root);
@@ -421,6 +487,10 @@ void wdr_scene_free(wdr_scene *sc)
 {
     free(sc->amps);
     sc->amps = NULL;
+    free((void *)sc->defects.listed_index);
+    free((void *)sc->defects.listed_kind);
+    sc->defects.listed_index = NULL;
+    sc->defects.listed_kind = NULL;
 }
 
 int wdr_scene_apply(const wdr_scene *sc, wdr_sim *s)
@@ -432,5 +502,6 @@ int wdr_scene_apply(const wdr_scene *sc, wdr_sim *s)
         wdr_sim_set_effect(s, k, sc->effects[k]);
     wdr_sim_set_auto_tolerance(s, sc->tolerance_lsb);
     wdr_sim_set_reference(s, sc->reference);
-    return wdr_sim_set_photocurrent(s, sc->amps);
+    int rc = sc->has_defects ? wdr_sim_set_defects(s, &sc->defects) : WDR_OK;
+    return rc ? rc : wdr_sim_set_photocurrent(s, sc->amps);
 }

@@ -205,6 +205,8 @@ static void estimate_all(const wdr_sim *s, const sim_ramp_table *tab, const sim_
     for (int k = 0; k < WDR_FX_CLIPPING; k++)
         spread += k == WDR_FX_ADC_QUANT ? 0 : est[k];
     est[WDR_FX_CLIPPING] = est_clip(s, tab, &ps, spread);
+    /* a defective pixel can sit anywhere in the code range: its worst case is the full scale */
+    est[WDR_FX_DEFECTS] = s->n_defects ? (double)((1u << s->board.adc_bits) - 1u) : 0;
 }
 
 static int is_noise(int fx) { return fx == WDR_FX_SHOT || fx == WDR_FX_KTC || fx == WDR_FX_READ; }
@@ -239,7 +241,13 @@ static double decide_auto(wdr_sim *s, const double est[], sim_plan *plan)
         wdr_fx_report *r = &s->report[best];
         r->requested = WDR_FX_AUTO;
         r->estimate_lsb = est[best];
-        if (s->reference && is_noise(best)) {
+        if (best == WDR_FX_DEFECTS) { /* nothing to estimate: either pixels were planted or not */
+            r->ran = plan->on[best] = s->n_defects > 0;
+            if (s->n_defects)
+                snprintf(r->why, sizeof r->why, "auto: ran, %ld defective pixels planted", s->n_defects);
+            else
+                snprintf(r->why, sizeof r->why, "auto: skipped, no defective pixels planted");
+        } else if (s->reference && is_noise(best)) {
             r->ran = plan->on[best] = 0;
             snprintf(r->why, sizeof r->why, "auto: skipped, the scene is a noiseless reference frame");
         } else if (est[best] <= budget) {

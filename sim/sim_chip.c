@@ -8,7 +8,8 @@
 #include <string.h>
 
 static const char *const effect_names[WDR_FX_COUNT] = {
-    "mismatch", "dark", "shot", "ktc", "read", "dac_quant", "adc_quant", "leakage", "clipping"};
+    "mismatch", "dark", "shot", "ktc", "read", "dac_quant", "adc_quant", "leakage", "clipping",
+    "defects"};
 
 const char *wdr_effect_name(int fx) { return fx >= 0 && fx < WDR_FX_COUNT ? effect_names[fx] : "?"; }
 
@@ -131,6 +132,7 @@ void wdr_sim_destroy(wdr_sim *s)
         free(arrays[k]);
     sim_table_free(&s->stepped);
     sim_table_free(&s->continuous);
+    sim_defects_free(s);
     free(s);
 }
 

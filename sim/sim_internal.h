@@ -85,6 +85,14 @@ typedef struct sim_plan {
 
 typedef void (*wdr_sim_progress_fn)(void *ctx, int rows_done, int rows_total);
 
+/* One planted defective pixel (sim_defects.c); the list is sorted by index, row_start[r] is the
+ * first entry of row r (height + 1 entries). */
+typedef struct sim_defect {
+    long i;
+    uint8_t kind;   /* enum wdr_defect_kind */
+    float v_stuck;  /* stuck: the hold node's voltage */
+} sim_defect;
+
 struct wdr_sim {
     wdr_board board;
     uint64_t chip_seed;
@@ -111,6 +119,9 @@ struct wdr_sim {
     int plan_stale;        /* effects, tolerance, ramp or light changed since the plan was made */
     float *hold_v, *hold_t;
     wdr_fx_report report[WDR_FX_COUNT];
+    sim_defect *defects;
+    long n_defects, *defect_row_start;
+    double hot_amps;
     wdr_sim_progress_fn progress;
     void *progress_ctx;
 };
@@ -133,6 +144,14 @@ void sim_read_row(const wdr_sim *s, const sim_plan *plan, double t_int, int row,
                   const float *t_cross, double t_after, float *out_f, uint16_t *out_u16);
 void sim_render_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, int row, double t_after,
                     float *out_f, uint16_t *out_u16);
+
+/* sim_defects.c: the planted pixels of one batch [i0, i0 + n) after the healthy physics ran:
+ * held voltages and times of dead and hot pixels (expose), codes before rounding of stuck and
+ * saturated pixels (read), or both (render). */
+void sim_defects_hold(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table *tab, long i0, int n, float *v_hold,
+                      float *t_cross);
+void sim_defects_codes(const wdr_sim *s, const sim_plan *plan, long i0, int n, double *code);
+void sim_defects_free(wdr_sim *s);
 
 /* sim_auto.c; band_of: the band of a photocurrent (same float-bits log2 as the guess table) */
 static inline int sim_band_of(const sim_plan *plan, double amps)

@@ -322,6 +322,7 @@ void sim_expose_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table
             v_hold[x0 + j] = (float)v;
             t_cross[x0 + j] = (float)t;
         }
+        sim_defects_hold(s, plan, tab, i0, n, v_hold + x0, t_cross + x0);
     }
 }
 
@@ -386,6 +387,7 @@ void sim_read_row(const wdr_sim *s, const sim_plan *plan, double t_int, int row,
     for (int x0 = 0; x0 < s->width; x0 += BATCH) {
         int n = s->width - x0 < BATCH ? s->width - x0 : BATCH;
         read_batch(s, plan, (long)row * s->width + x0, n, v_hold + x0, t_cross + x0, t_int, t_after, code);
+        sim_defects_codes(s, plan, (long)row * s->width + x0, n, code);
         store_batch(plan, code, n, out_f ? out_f + x0 : NULL, out_u16 ? out_u16 + x0 : NULL);
     }
 }
@@ -408,7 +410,9 @@ void sim_render_row(const wdr_sim *s, const sim_plan *plan, const sim_ramp_table
             v[j] = (float)vj; /* stored as float, as expose does: both paths give the same bits */
             t[j] = (float)tj;
         }
+        sim_defects_hold(s, plan, tab, i0, n, v, t);
         read_batch(s, plan, i0, n, v, t, tab->t_int, t_after, code);
+        sim_defects_codes(s, plan, i0, n, code);
         store_batch(plan, code, n, out_f ? out_f + x0 : NULL, out_u16 ? out_u16 + x0 : NULL);
     }
 }

@@ -7,7 +7,8 @@
 /* One stream per random quantity: adding an effect never shifts another effect's draws. */
 enum sim_stream {
     SIM_RNG_VT1 = 1, SIM_RNG_VT2, SIM_RNG_VT3, SIM_RNG_BETA3, SIM_RNG_CPD, SIM_RNG_DARK,
-    SIM_RNG_KTC = 16, SIM_RNG_SHOT, SIM_RNG_READ
+    SIM_RNG_KTC = 16, SIM_RNG_SHOT, SIM_RNG_READ,
+    SIM_RNG_DEFECT_POS = 32, SIM_RNG_DEFECT_V
 };
 
 /* splitmix64's finaliser: a bijective 64-bit mixer with full avalanche. */

@@ -15,6 +15,8 @@ typedef struct wdr_scene {
     uint64_t chip_seed, frame_seed;
     double lum_to_amp, exposure;
     double i_min, i_max;           /* photocurrent range of the map */
+    wdr_sim_defects defects;       /* "defects": rates and listed pixels (index/kind arrays malloc'd) */
+    int has_defects;
     char illumination[160];        /* what lights it, for reports */
     char warning[256];             /* non-fatal remark (clamped negatives, resampling), or "" */
 } wdr_scene;

@@ -21,6 +21,7 @@ enum wdr_effect {
     WDR_FX_ADC_QUANT,  /* column ADC quantisation (off: continuous output code) */
     WDR_FX_LEAKAGE,    /* hold-node droop until the row is read */
     WDR_FX_CLIPPING,   /* DAC and ADC rails */
+    WDR_FX_DEFECTS,    /* planted defective pixels: dead, stuck, hot, saturated (wdr_sim_set_defects) */
     WDR_FX_COUNT
 };
 
@@ -72,6 +73,33 @@ int wdr_sim_render_float(wdr_sim *s, uint64_t frame_seed, float *frame);
 const wdr_fx_report *wdr_sim_report(const wdr_sim *s);
 
 /* ---- Additions (sim/SPEC.md) ---------------------------------------------------------- */
+
+/* Defective pixels (effect "defects", sim/SPEC.md), planted by physics, not by code:
+ * dead: the photodiode gives no current (neither photo nor dark current);
+ * stuck: the hold node is shorted to a fixed voltage (drawn per pixel over the ramp's span);
+ * hot: a dark current of hot_amps on top of the photocurrent;
+ * saturated: the column output sits at the ADC's top rail. */
+enum wdr_defect_kind { WDR_DEFECT_NONE, WDR_DEFECT_DEAD, WDR_DEFECT_STUCK, WDR_DEFECT_HOT, WDR_DEFECT_SATURATED,
+                       WDR_DEFECT_KINDS };
+const char *wdr_defect_name(int kind); /* "dead", "stuck", "hot", "saturated" */
+
+typedef struct wdr_sim_defects {
+    double ppm[WDR_DEFECT_KINDS]; /* rate of each kind (per million pixels), at positions drawn from seed */
+    double hot_amps;              /* a hot pixel's dark current (A; 0: 1e-11) */
+    uint64_t seed;                /* positions of the rates; 0: the chip seed */
+    int n_listed;                 /* and pixels at given positions: */
+    const long *listed_index;     /* y * width + x */
+    const uint8_t *listed_kind;   /* enum wdr_defect_kind */
+} wdr_sim_defects;
+
+/* Plant defects (replacing earlier ones; NULL clears). Rates give round(ppm * pixels / 1e6)
+ * distinct pixels of each kind; a listed pixel overrides a drawn one.
+ * @retval WDR_OK, WDR_E_INVAL (negative or > 1e6 ppm, kind or index out of range), WDR_E_NOMEM */
+int wdr_sim_set_defects(wdr_sim *s, const wdr_sim_defects *d);
+/* The ground truth: kind per pixel (width*height, WDR_DEFECT_NONE for healthy), and the count
+ * of one kind (WDR_DEFECT_NONE: all defective pixels). */
+void wdr_sim_defect_map(const wdr_sim *s, uint8_t *kind);
+long wdr_sim_defect_count(const wdr_sim *s, int kind);
 
 /* Mode of one effect (WDR_FX_OFF for an unknown effect). New chips have every effect ON. */
 wdr_fx_mode wdr_sim_get_effect(const wdr_sim *s, int fx);

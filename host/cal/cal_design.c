@@ -41,6 +41,16 @@ double wdr_cal_design_log_slope(const wdr_cal_design *d, double x)
     return (wdr_cal_design_code(d, x * exp(h)) - wdr_cal_design_code(d, x * exp(-h))) / (2 * h);
 }
 
+double wdr_cal_design_dac_step_codes(const wdr_cal_design *d, double x)
+{
+    const wdr_board *b = &d->board;
+    double g = wdr_ideal_target(&d->px, &d->op, x + d->dark_a), dv = 1e-4;
+    double gain = (wdr_pixel_sf_out(&d->px.dev, g + dv) - wdr_pixel_sf_out(&d->px.dev, g - dv)) / (2 * dv);
+    double adc_lsb = (b->adc_hi_v - b->adc_lo_v) / (double)((1u << b->adc_bits) - 1u);
+    double dac_lsb = (b->dac_hi_v - b->dac_lo_v) / (double)((1u << b->dac_bits) - 1u);
+    return fabs(gain * b->adc_gain) * dac_lsb / adc_lsb;
+}
+
 double wdr_cal_design_end_ratio(const wdr_cal_design *d, double x0, double x1)
 {
     double secant = (wdr_cal_design_code(d, x1) - wdr_cal_design_code(d, x0)) / log(x1 / x0);

@@ -37,6 +37,9 @@ double wdr_cal_design_code(const wdr_cal_design *d, double x);
 /* d code / d ln x at x (codes per unit of ln x; negative: brighter light, lower code). */
 double wdr_cal_design_log_slope(const wdr_cal_design *d, double x);
 
+/* One DAC step at the level current x holds, in ADC codes (through the source follower). */
+double wdr_cal_design_dac_step_codes(const wdr_cal_design *d, double x);
+
 /* Ratio of the slope at x0 to the secant from x0 to x1: the shape of the response at an end of a
  * set of knots, independent of the pixel's own gain. */
 double wdr_cal_design_end_ratio(const wdr_cal_design *d, double x0, double x1);

@@ -31,24 +31,35 @@ static int check_request(const wdr_cal_source *src, const double *amps, int n, i
     return WDR_OK;
 }
 
-/* Mean of m_avg frames into out; acc and one are scratch of np values. */
+/* Mean of m_avg frames into out, and one frame's temporal sd (RMS over the array of each pixel's
+ * sample sd) into *noise when m_avg >= 2; acc holds 2 np values of scratch, one np. */
 static int average_level(const wdr_cal_source *src, double amps, int m_avg, int *frame_no, double *acc, float *one,
-                         float *out, wdr_cal_progress_fn progress, void *pctx, int total)
+                         float *out, double *noise, wdr_cal_progress_fn progress, void *pctx, int total)
 {
     long np = (long)src->width * src->height;
-    memset(acc, 0, sizeof(double) * (size_t)np);
+    double *acc2 = acc + np;
+    memset(acc, 0, sizeof(double) * 2 * (size_t)np);
     for (int f = 0; f < m_avg; f++) {
         int rc = src->capture(src->ctx, amps, *frame_no, one);
         if (rc)
             return rc;
-        for (long i = 0; i < np; i++)
+        for (long i = 0; i < np; i++) {
             acc[i] += one[i];
+            acc2[i] += (double)one[i] * one[i];
+        }
         ++*frame_no;
         if (progress)
             progress(pctx, *frame_no, total, amps);
     }
-    for (long i = 0; i < np; i++)
+    double var = 0;
+    long used = 0;
+    for (long i = 0; i < np; i++) {
         out[i] = (float)(acc[i] / m_avg);
+        double v = m_avg > 1 ? (acc2[i] - acc[i] * acc[i] / m_avg) / (m_avg - 1) : 0;
+        if (isfinite(v))
+            var += v > 0 ? v : 0, used++;
+    }
+    *noise = m_avg > 1 && used ? sqrt(var / used) : 0;
     return WDR_OK;
 }
 
@@ -63,21 +74,22 @@ int wdr_cal_acquire(const wdr_cal_source *src, const double *amps, int n, int m_
     out->width = src->width;
     out->height = src->height;
     out->n = n;
+    out->m_avg = m_avg > 1 ? m_avg : 0; /* one frame measures no temporal noise */
     memcpy(out->amps, amps, sizeof(double) * (size_t)n);
     out->frames = malloc(sizeof(float) * (size_t)np * (size_t)n);
     out->dark = with_dark ? malloc(sizeof(float) * (size_t)np) : NULL;
-    double *acc = malloc(sizeof(double) * (size_t)np);
+    double *acc = malloc(sizeof(double) * 2 * (size_t)np);
     float *one = malloc(sizeof(float) * (size_t)np);
     if (!out->frames || (with_dark && !out->dark) || !acc || !one) {
         rc = WDR_E_NOMEM;
         snprintf(err, (size_t)errlen, "out of memory for %d levels of %ld pixels", n, np);
     }
     int frame_no = 0, total = (n + (with_dark ? 1 : 0)) * m_avg;
-    if (!rc && with_dark && (rc = average_level(src, 0, m_avg, &frame_no, acc, one, out->dark, progress, pctx, total)))
+    if (!rc && with_dark && (rc = average_level(src, 0, m_avg, &frame_no, acc, one, out->dark, &out->dark_noise, progress, pctx, total)))
         snprintf(err, (size_t)errlen, "dark frame capture failed: %s", wdr_strerror(rc));
     for (int k = 0; !rc && k < n; k++)
-        if ((rc = average_level(src, amps[k], m_avg, &frame_no, acc, one, out->frames + (long)k * np, progress, pctx,
-                                total)))
+        if ((rc = average_level(src, amps[k], m_avg, &frame_no, acc, one, out->frames + (long)k * np,
+                                &out->noise[k], progress, pctx, total)))
             snprintf(err, (size_t)errlen, "capture at %g A (level %d) failed: %s", amps[k], k, wdr_strerror(rc));
     free(acc);
     free(one);
@@ -115,9 +127,12 @@ int wdr_cal_levels_subset(const wdr_cal_levels *all, const int *idx, int n, wdr_
     out->width = all->width;
     out->height = all->height;
     out->n = n;
+    out->m_avg = all->m_avg;
+    out->dark_noise = all->dark_noise;
     for (int k = 0; k < n; k++) {
         const float *src = idx[k] < 0 ? all->dark : all->frames + (long)idx[k] * np;
         out->amps[k] = idx[k] < 0 ? 0 : all->amps[idx[k]];
+        out->noise[k] = idx[k] < 0 ? all->dark_noise : all->noise[idx[k]];
         memcpy(out->frames + (long)k * np, src, sizeof(float) * (size_t)np);
     }
     return WDR_OK;

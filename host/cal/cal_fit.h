@@ -17,6 +17,11 @@ typedef struct wdr_cal_levels {
     double amps[WDR_CAL_MAX_LEVELS];
     float *frames;
     float *dark;
+    /* Temporal noise measured from the frames themselves (wdr_cal_acquire with m_avg >= 2):
+     * noise[k] is one frame's sd at level k (codes, RMS over the array), dark_noise the dark
+     * frame's; m_avg frames were averaged. m_avg 0: not measured (ties judged by tie_codes alone). */
+    double noise[WDR_CAL_MAX_LEVELS], dark_noise;
+    int m_avg;
 } wdr_cal_levels;
 
 /* A monotone curve through (ln x_k, y_k): the array's median response (PCHIP, Fritsch-Carlson). */
@@ -64,7 +69,41 @@ typedef struct wdr_cal_config {
                            (default 0.5, half an ADC code; about 1e-3 for unquantised data) */
     const struct wdr_cal_design *design; /* the designed response (may be NULL): curve models take
                            their end slopes from its shape instead of three-point estimates */
+    double code_noise;  /* rms uncertainty of a calibration level's code (codes): rounding of the ADC
+                           and DAC, temporal noise left after averaging. 0: auto, the levels'
+                           measured noise over sqrt(M), with the converters' rounding when the
+                           levels are whole codes */
+    double tie_sigmas;  /* k: a reversal counts only beyond tie_codes + k sigma sqrt(2/M) of the measured
+                           temporal noise (default 5: about 3e-7 false reversals per pair of levels) */
+    double step_codes;  /* smallest response step the ramp resolves (one DAC step, codes; 0: unknown):
+                           selected levels are spaced by more than this plus spacing_sigmas sigma */
+    double spacing_sigmas; /* default 3 */
 } wdr_cal_config;
+
+/* Tolerance for a reversal between levels k-1 and k (codes): tie_codes plus tie_sigmas times the
+ * sd of the difference of two M-frame means, from the levels' measured noise. */
+double wdr_cal_tie_tolerance(const wdr_cal_levels *lv, const wdr_cal_config *cfg, int k);
+/* sd of one level's M-frame mean (codes; 0 when the noise was not measured). */
+double wdr_cal_level_sd(const wdr_cal_levels *lv, int k);
+
+/* Decreasing isotonic regression (pool-adjacent-violators) of y[0..n-1] with weights w (> 0):
+ * out is the closest non-increasing sequence in weighted least squares. */
+void wdr_cal_isotonic_falling(const double *y, const double *w, int n, double *out);
+
+/* Frames per level for a calibration (`--frames auto`), from a probe that measured the noise
+ * (m_avg >= 2): the fewest M for which every level in [lo, hi] has sigma / sqrt(M) below its
+ * wanted error, target_pct of contrast (codes: target x the median's slope in ln x) but never
+ * finer than half the quantisation floor lsb / sqrt(12) (lsb 0: unquantised). at_amps names the
+ * level that decided, with its sigma, slope and wanted error. At least 2, at most max_frames. */
+/* Median response per level over the pixels not flagged (flags NULL: all). @retval WDR_OK, WDR_E_NOMEM */
+int wdr_cal_level_medians(const wdr_cal_levels *lv, const uint8_t *flags, double *med);
+
+typedef struct wdr_cal_frames_choice {
+    int frames, capped;
+    double target_pct, at_amps, sigma_codes, slope, want_codes;
+} wdr_cal_frames_choice;
+int wdr_cal_frames_for(const wdr_cal_levels *probe, const double *med, double lo, double hi, double lsb,
+                       double target_pct, int max_frames, wdr_cal_frames_choice *out);
 
 void wdr_cal_config_defaults(wdr_cal_config *c, int model);
 
@@ -82,6 +121,8 @@ typedef struct wdr_cal_result {
     long n_status[WDR_FIT_COUNT];
     long n_bad;
     int saturated_levels; /* levels where the array median sits at a rail */
+    double code_noise;    /* rms uncertainty of a level's code used by the tables' fits (cfg.code_noise
+                             or its auto value) */
 } wdr_cal_result;
 
 /* Detect dead, stuck, hot and saturated pixels into flags (width*height, zeroed first). */

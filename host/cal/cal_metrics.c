@@ -206,12 +206,131 @@ int wdr_display_by_decade(const wdr_display_error *e, int n, wdr_display_error *
     return m;
 }
 
+int wdr_nominal_response_table(const wdr_nominal *nom, int per_decade, double *ln_x, double *code, int max)
+{
+    double l0 = log(nom->x_lo) - 0.5 * log(10), l1 = log(nom->x_hi) + 0.5 * log(10);
+    int n = (int)ceil((l1 - l0) / log(10) * per_decade) + 1;
+    if (n > max || n < 2)
+        return 0;
+    for (int k = 0; k < n; k++) {
+        ln_x[k] = l0 + (l1 - l0) * k / (n - 1);
+        code[k] = wdr_nominal_eval(nom, exp(ln_x[k]));
+        if (!isfinite(code[k]) || (k > 0 && !(code[k] < code[k - 1])))
+            return 0;
+    }
+    return n;
+}
+
 /* ---- quantisation floor ---- */
 
 double wdr_quant_floor_pct(double log_slope_codes, double dac_step_codes)
 {
     double q = sqrt(2 * (1 + dac_step_codes * dac_step_codes) / 12);
     return 100 * q / fmax(fabs(log_slope_codes), 1e-12);
+}
+
+/* ---- everything at one current ---- */
+
+typedef struct eval_buffers {
+    float *one, *avg;
+    double *acc, *xa, *xb, *xm;
+} eval_buffers;
+
+static void free_buffers(eval_buffers *b)
+{
+    free(b->one), free(b->avg), free(b->acc), free(b->xa), free(b->xb), free(b->xm);
+}
+
+static int alloc_buffers(eval_buffers *b, long np)
+{
+    size_t f = sizeof(float) * (size_t)np, d = sizeof(double) * (size_t)np;
+    *b = (eval_buffers){malloc(f), malloc(f), malloc(d), malloc(d), malloc(d), malloc(d)};
+    if (b->one && b->avg && b->acc && b->xa && b->xb && b->xm)
+        return WDR_OK;
+    free_buffers(b);
+    return WDR_E_NOMEM;
+}
+
+/* Mean of m frames at x into b->avg; the first frame also stays in b->one. */
+static int capture_average(const wdr_cal_source *src, double x, int m, int frame_no, eval_buffers *b, float *first)
+{
+    long np = (long)src->width * src->height;
+    memset(b->acc, 0, sizeof(double) * (size_t)np);
+    for (int f = 0; f < m; f++) {
+        int rc = src->capture(src->ctx, x, frame_no + f, b->one);
+        if (rc)
+            return rc;
+        for (long i = 0; i < np; i++)
+            b->acc[i] += b->one[i];
+        if (f == 0 && first)
+            memcpy(first, b->one, sizeof(float) * (size_t)np);
+    }
+    for (long i = 0; i < np; i++)
+        b->avg[i] = (float)(b->acc[i] / m);
+    return WDR_OK;
+}
+
+static double floor_at(const wdr_cal_result *res, const wdr_eval_opts *o, double x)
+{
+    if (!o->quantised)
+        return 0;
+    if (o->design)
+        return wdr_quant_floor_pct(wdr_cal_design_log_slope(o->design, x), wdr_cal_design_dac_step_codes(o->design, x));
+    return wdr_quant_floor_pct(wdr_nominal_log_slope(&res->nominal, x), 1.0);
+}
+
+/* Total error from two single frames (b->one holds frame a on entry) and the average's x_hat. */
+static int measure_total(const wdr_cal_result *res, const wdr_cal_view *tab, const wdr_cal_source *src, double x,
+                         const wdr_eval_opts *o, eval_buffers *b, wdr_eval_point *out)
+{
+    const double lo = res->nominal.x_lo, hi = res->nominal.x_hi;
+    int m = o->frames > 0 ? o->frames : 1, rc = wdr_fpn_recover(res, tab, WDR_PATH_TABLE, b->one, res->flags, b->xa);
+    if (!rc)
+        rc = src->capture(src->ctx, x, o->first_frame_no + m, b->one);
+    if (!rc)
+        rc = wdr_fpn_recover(res, tab, WDR_PATH_TABLE, b->one, res->flags, b->xb);
+    if (!rc)
+        wdr_total_error_of(b->xa, b->xb, b->xm, (long)src->width * src->height, m, x, lo, hi, &out->total);
+    return rc;
+}
+
+int wdr_eval_point_measure(const wdr_cal_result *res, const wdr_cal_view *tab, const wdr_cal_source *src, double x,
+                           const wdr_eval_opts *o, wdr_eval_point *out)
+{
+    long np = (long)src->width * src->height;
+    const double lo = res->nominal.x_lo, hi = res->nominal.x_hi;
+    eval_buffers b;
+    float *first = NULL;
+    memset(out, 0, sizeof *out);
+    out->x = x;
+    out->floor_pct = floor_at(res, o, x);
+    if (alloc_buffers(&b, np) || (o->temporal && !(first = malloc(sizeof(float) * (size_t)np)))) {
+        free_buffers(&b);
+        return WDR_E_NOMEM;
+    }
+    int m = o->frames > 0 ? o->frames : 1, rc = capture_average(src, x, m, o->first_frame_no, &b, first);
+    if (!rc && !(rc = wdr_fpn_recover(res, NULL, WDR_PATH_RAW, b.avg, res->flags, b.xm))) {
+        wdr_contrast_of(b.xm, np, x, lo, hi, &out->before);
+        if (o->display)
+            wdr_display_error_of(b.xm, np, x, o->display, &out->display_before);
+        rc = wdr_fpn_recover(res, NULL, WDR_PATH_MODEL, b.avg, res->flags, b.xm);
+        if (!rc)
+            wdr_contrast_of(b.xm, np, x, lo, hi, &out->model);
+    }
+    if (!rc && tab && !(rc = wdr_fpn_recover(res, tab, WDR_PATH_TABLE, b.avg, res->flags, b.xm))) {
+        wdr_contrast_of(b.xm, np, x, lo, hi, &out->table);
+        if (o->display)
+            wdr_display_error_of(b.xm, np, x, o->display, &out->display);
+        if (o->temporal) {
+            memcpy(b.one, first, sizeof(float) * (size_t)np);
+            rc = measure_total(res, tab, src, x, o, &b, out);
+        } else { /* no temporal noise: every frame is the same, all of it is FPN */
+            out->total = (wdr_total_error){x, out->table.sd_pct, 0, out->table.sd_pct, m, out->table.sd_pct};
+        }
+    }
+    free(first);
+    free_buffers(&b);
+    return rc;
 }
 
 /* ---- the older per-frame summary ---- */

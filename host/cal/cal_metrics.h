@@ -25,6 +25,8 @@
 #ifndef WDR_CAL_METRICS_H
 #define WDR_CAL_METRICS_H
 #include "board.h"
+#include "cal_design.h"
+#include "cal_engine.h"
 #include "cal_fit.h"
 #include "operators.h"
 #include "wdr_cal.h"
@@ -108,6 +110,13 @@ void wdr_display_error_of(const double *x_hat, long n, double x, const wdr_displ
  * their pixel counts; out gets at most max_out decades. @return the number of decades */
 int wdr_display_by_decade(const wdr_display_error *e, int n, wdr_display_error *out, int max_out);
 
+/* The nominal response as a table for the display mapping of corrected codes (host/lib/tonemap.h,
+ * wdr_response_curve): n points per_decade over [x_lo, x_hi] of the nominal widened by half a
+ * decade each side (the curve's own extension), ln x rising, codes falling. At 64 per decade,
+ * interpolating linearly in ln x stays within 0.1 code of the curve. @return the number of points
+ * (at most max; 0 when the curve does not fall strictly there) */
+int wdr_nominal_response_table(const wdr_nominal *nom, int per_decade, double *ln_x, double *code, int max);
+
 /* ---- quantisation floor ---- */
 
 /* Contrast error (%) that rounding alone leaves on a pixel read at slope |dy/d ln x| codes per
@@ -115,6 +124,34 @@ int wdr_display_by_decade(const wdr_display_error *e, int n, wdr_display_error *
  * (1 LSB) and a DAC step of s ADC codes held as a uniform error, once in the frame and once in the
  * calibration levels the pixel's curve passes through. With converters off the floor is 0. */
 double wdr_quant_floor_pct(double log_slope_codes, double dac_step_codes);
+
+/* ---- everything at one current, from a frame source ---- */
+
+typedef struct wdr_eval_opts {
+    int frames;           /* frames averaged per evaluation frame (the calibration's M; 1 without noise) */
+    int temporal;         /* 1: the source has temporal noise: two more single frames give the total error */
+    int quantised;        /* 1: converters on: the quantisation floor is computed, else it is 0 */
+    const wdr_display_map *display;  /* may be NULL: no display error */
+    const wdr_cal_design *design;    /* slope and DAC step for the floor (NULL: the nominal's slope, 1 code) */
+    int first_frame_no;   /* frame numbers (seeds) used: first_frame_no .. + frames + 2 */
+} wdr_eval_opts;
+
+typedef struct wdr_eval_point {
+    double x;
+    wdr_contrast before;  /* raw codes through the nominal inverse (of the averaged frame) */
+    wdr_contrast model;   /* the model's own inverse in double */
+    wdr_contrast table;   /* the firmware table in float32 (what the product delivers) */
+    wdr_total_error total;/* table path: FPN, temporal, totals at 1 and `frames` frames (without temporal
+                             noise all of it is FPN) */
+    wdr_display_error display, display_before; /* table path and raw, in 8-bit levels */
+    double floor_pct;     /* quantisation floor at x (0 with converters off) */
+} wdr_eval_point;
+
+/* Capture at uniform current x from src (an average of o->frames frames, and with o->temporal two
+ * single frames) and measure everything above. tab may be NULL (no table path; table and total
+ * stay zero). @retval WDR_OK, WDR_E_NOMEM, or the source's error */
+int wdr_eval_point_measure(const wdr_cal_result *res, const wdr_cal_view *tab, const wdr_cal_source *src, double x,
+                           const wdr_eval_opts *o, wdr_eval_point *out);
 
 /* ---- the older per-frame summary (selection, torture tests) ---- */
 

@@ -19,6 +19,8 @@ static int sample_grid(const wdr_cal_levels *g, int want, wdr_cal_levels *s)
     memset(s, 0, sizeof *s);
     s->width = (int)m, s->height = 1, s->n = g->n;
     memcpy(s->amps, g->amps, sizeof g->amps);
+    memcpy(s->noise, g->noise, sizeof g->noise); /* the same noise statistics as the full array */
+    s->dark_noise = g->dark_noise, s->m_avg = g->m_avg;
     s->frames = malloc(sizeof(float) * (size_t)m * (size_t)g->n);
     s->dark = g->dark ? malloc(sizeof(float) * (size_t)m) : NULL;
     if (!s->frames || (g->dark && !s->dark))
@@ -32,15 +34,43 @@ static int sample_grid(const wdr_cal_levels *g, int want, wdr_cal_levels *s)
     return WDR_OK;
 }
 
+/* Neighbouring chosen levels must differ in the array's response by more than the ramp can
+ * resolve (one DAC step) plus spacing_sigmas sd of their difference: closer, their order is noise
+ * and a healthy pixel's responses there reverse. med: the sample's median per grid level. */
+static int spaced_enough(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *idx,
+                         int n)
+{
+    for (int j = 1; j < n; j++) {
+        if (idx[j - 1] < 0)
+            continue; /* the dark reference is judged by the paper models themselves */
+        double a = wdr_cal_level_sd(s, idx[j - 1]), b = wdr_cal_level_sd(s, idx[j]);
+        double need = cfg->step_codes + cfg->spacing_sigmas * sqrt(a * a + b * b);
+        if (!(fabs(med[idx[j - 1]] - med[idx[j]]) > need))
+            return 0;
+    }
+    return 1;
+}
+
+/* The fixed-pattern part of a judged level's contrast error: the probe's own temporal noise
+ * (sd of its M-frame mean over the response slope) is taken out in quadrature, so a noisy
+ * probe does not choose by its noise. */
+static double fpn_only_pct(const wdr_cal_levels *s, const wdr_cal_result *res, int k, double sd_pct)
+{
+    double slope = wdr_nominal_log_slope(&res->nominal, s->amps[k]);
+    double noise_pct = slope > 0 ? 100 * wdr_cal_level_sd(s, k) / slope : 0;
+    double v = sd_pct * sd_pct - noise_pct * noise_pct;
+    return v > 0 ? sqrt(v) : 0;
+}
+
 /* Worst sd over the levels in range for one candidate set; INFINITY when it cannot be fitted. */
-static double judge(const wdr_cal_levels *s, const wdr_cal_config *cfg, const int *idx, int n, const int *eval,
-                    int n_eval, double *worst_at)
+static double judge(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *idx, int n,
+                    const int *eval, int n_eval, double *worst_at)
 {
     wdr_cal_levels lv;
     wdr_cal_result res;
     char err[160];
     double worst = INFINITY;
-    if (wdr_cal_levels_subset(s, idx, n, &lv))
+    if (!spaced_enough(s, cfg, med, idx, n) || wdr_cal_levels_subset(s, idx, n, &lv))
         return INFINITY;
     lv.dark = s->dark;
     if (!wdr_cal_fit_array(&lv, cfg, &res, err, sizeof err) && res.n_bad * 4 < (long)s->width) {
@@ -54,7 +84,7 @@ static double judge(const wdr_cal_levels *s, const wdr_cal_config *cfg, const in
                 continue; /* judged where the fit did not look: an interpolating model is exact there */
             wdr_fpn_frame(&res, NULL, WDR_PATH_MODEL, s->frames + (long)k * s->width, s->amps[k], res.flags, NULL,
                           &st);
-            double v = st.nonfinite || !st.used ? INFINITY : st.sd_pct;
+            double v = st.nonfinite || !st.used ? INFINITY : fpn_only_pct(s, &res, k, st.sd_pct);
             if (v > worst)
                 worst = v, *worst_at = s->amps[k];
         }
@@ -98,8 +128,8 @@ static long binomial(int n, int k)
 }
 
 /* Every k-subset of cand (lexicographic), the dark reference in front when used. */
-static void search_subsets(const wdr_cal_levels *s, const wdr_cal_config *cfg, const int *cand, int nc, int k,
-                           const int *eval, int n_eval, wdr_cal_choice *best)
+static void search_subsets(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *cand,
+                           int nc, int k, const int *eval, int n_eval, wdr_cal_choice *best)
 {
     int pos[WDR_CAL_MAX_LEVELS], idx[WDR_CAL_MAX_LEVELS], ref = cfg->use_dark_ref ? 1 : 0;
     for (int j = 0; j < k; j++)
@@ -108,7 +138,7 @@ static void search_subsets(const wdr_cal_levels *s, const wdr_cal_config *cfg, c
         idx[0] = -1;
         for (int j = 0; j < k; j++)
             idx[ref + j] = cand[pos[j]];
-        double at = 0, w = judge(s, cfg, idx, k + ref, eval, n_eval, &at);
+        double at = 0, w = judge(s, cfg, med, idx, k + ref, eval, n_eval, &at);
         keep_if_better(best, s, idx, k + ref, w, at);
         int j = k - 1;
         while (j >= 0 && pos[j] == nc - k + j)
@@ -147,17 +177,50 @@ static int warped_set(const wdr_cal_levels *s, const int *cand, int nc, int n, d
     return 1;
 }
 
-static void search_warped(const wdr_cal_levels *s, const wdr_cal_config *cfg, const int *cand, int nc, int n,
-                          const int *eval, int n_eval, wdr_cal_choice *best)
+/* Drop levels of a warped set that lie closer to the level kept before them than spacing
+ * allows (greedy from the dark end; the brightest level replaces the last one kept when it
+ * would be dropped, so the set keeps its span). Returns the new count. */
+static int prune_close(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, int *idx, int n)
+{
+    int m = 1;
+    for (int j = 1; j < n; j++) {
+        int pair[2] = {idx[m - 1], idx[j]};
+        if (spaced_enough(s, cfg, med, pair, 2))
+            idx[m++] = idx[j];
+        else if (j == n - 1 && m >= 2) {
+            int alt[2] = {idx[m - 2], idx[j]};
+            if (spaced_enough(s, cfg, med, alt, 2))
+                idx[m - 1] = idx[j];
+        }
+    }
+    return m;
+}
+
+static void search_warped(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *cand,
+                          int nc, int n, const int *eval, int n_eval, wdr_cal_choice *best)
 {
     static const double gammas[] = {0, 0.6, 0.7, 0.8, 0.9, 1.0, 1.12, 1.25, 1.4, 1.6};
     for (size_t g = 0; g < sizeof gammas / sizeof gammas[0]; g++) {
         int idx[WDR_CAL_MAX_LEVELS];
         if (!warped_set(s, cand, nc, n, gammas[g], idx))
             continue;
-        double at = 0, w = judge(s, cfg, idx, n, eval, n_eval, &at);
-        keep_if_better(best, s, idx, n, w, at);
+        int m = prune_close(s, cfg, med, idx, n);
+        double at = 0, w = judge(s, cfg, med, idx, m, eval, n_eval, &at);
+        keep_if_better(best, s, idx, m, w, at);
     }
+}
+
+static double median_level(const wdr_cal_levels *g, int k, float *scratch);
+
+static int sample_medians(const wdr_cal_levels *s, double *med)
+{
+    float *scratch = malloc(sizeof(float) * (size_t)s->width * (size_t)s->height);
+    if (!scratch)
+        return WDR_E_NOMEM;
+    for (int k = 0; k < s->n; k++)
+        med[k] = median_level(s, k, scratch);
+    free(scratch);
+    return WDR_OK;
 }
 
 /* Thin the candidates (keeping both ends) until the subset count is affordable. */
@@ -187,11 +250,14 @@ int wdr_cal_select_currents(const wdr_cal_levels *grid, const wdr_cal_config *cf
     }
     wdr_cal_levels s;
     int rc = sample_grid(grid, sample_pixels, &s);
+    double med[WDR_CAL_MAX_LEVELS];
+    if (!rc)
+        rc = sample_medians(&s, med);
     if (!rc) {
         if (cfg->model == WDR_MODEL_SIMPLE3 || cfg->model == WDR_MODEL_COMPLEX4)
-            search_subsets(&s, cfg, cand, thin_candidates(cand, nc, n_currents), n_currents, eval, n_eval, out);
+            search_subsets(&s, cfg, med, cand, thin_candidates(cand, nc, n_currents), n_currents, eval, n_eval, out);
         else
-            search_warped(&s, cfg, cand, nc, n_currents, eval, n_eval, out);
+            search_warped(&s, cfg, med, cand, nc, n_currents, eval, n_eval, out);
     }
     wdr_cal_levels_free(&s);
     if (!rc && !isfinite(out->worst_pct)) {

@@ -13,6 +13,33 @@ double wdr_code_to_display(const wdr_ideal_pixel *px, const wdr_board *b, double
     return isfinite(t) ? (t < 0 ? 0 : (t > 1 ? 1 : t)) : 0;
 }
 
+double wdr_response_current(const wdr_response_curve *c, double code)
+{
+    int n = c->n;
+    if (n < 2)
+        return 0;
+    if (!(code < c->code[0])) /* darker than the first point (also NaN): its current */
+        return exp(c->ln_x[0]);
+    if (!(code > c->code[n - 1]))
+        return exp(c->ln_x[n - 1]);
+    int lo = 0, hi = n - 1; /* code[lo] > code >= code[hi] */
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (code < c->code[mid])
+            lo = mid;
+        else
+            hi = mid;
+    }
+    double f = (c->code[lo] - code) / (c->code[lo] - c->code[hi]);
+    return exp(c->ln_x[lo] + f * (c->ln_x[hi] - c->ln_x[lo]));
+}
+
+double wdr_code_to_display_curve(const wdr_response_curve *c, const wdr_operator *op, double lum_per_amp, double code)
+{
+    double t = wdr_operator_eval(op, lum_per_amp * wdr_response_current(c, code));
+    return isfinite(t) ? (t < 0 ? 0 : (t > 1 ? 1 : t)) : 0;
+}
+
 uint8_t wdr_display_to_u8(double t)
 {
     t = t > 0 ? (t < 1 ? t : 1) : 0;

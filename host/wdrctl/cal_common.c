@@ -58,7 +58,9 @@ static int set_option(int c, const char *arg, cal_opts *o)
     case 'u': o->upload = 1; return EX_OK;
     case 'j': o->json = 1; return EX_OK;
     case 'n': return parse_count("--select", arg, 2, WDR_CAL_MAX_LEVELS - 1, &o->select_n);
-    case 'M': return parse_count("--frames", arg, 1, 4096, &o->frames);
+    case 'M':
+        o->frames_auto = !strcmp(arg, "auto");
+        return o->frames_auto ? EX_OK : parse_count("--frames", arg, 1, 4096, &o->frames);
     case 'P': return parse_count("--sample", arg, 16, 1 << 20, &o->sample);
     case 'S': return parse_count("--out-scale", arg, 1, 16, &o->out_scale);
     case 'a': return parse_on_off("--adc", arg, &o->adc);
@@ -82,7 +84,7 @@ int cal_parse_options(int argc, char **argv, const char *cmd, cal_opts *o)
         {"dac", required_argument, NULL, 'D'},      {"seed", required_argument, NULL, 's'},
         {"lut", required_argument, NULL, 'l'},      {"out-scale", required_argument, NULL, 'S'},
         {"form", required_argument, NULL, 'F'},     {NULL, 0, NULL, 0}};
-    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .adc = 1, .dac = 1, .sample = 256, .seed = 1, .out_scale = 1,
+    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .frames_auto = 1, .adc = 1, .dac = 1, .sample = 256, .seed = 1, .out_scale = 1,
                     .form = -1};
     optind = 1;
     int c;
@@ -164,6 +166,14 @@ int cal_load_board(const char *name, wdr_board *b)
     return rc ? wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_CONFIG, "%s", err) : EX_OK;
 }
 
+int cal_design_for(const wdr_board *b, const char *op_name, double t_int_s, wdr_cal_design *d)
+{
+    char err[512];
+    if (wdr_cal_design_init(d, b, op_name, t_int_s, b->height / 2 * b->row_time_s, 1, err, sizeof err))
+        return wdrctl_fail(EX_CONFIG, "designed response for operator '%s': %s", op_name, err);
+    return EX_OK;
+}
+
 int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c)
 {
     char err[512];
@@ -171,14 +181,21 @@ int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c)
         return wdrctl_fail(EX_CONFIG, "simulated chip for operator '%s': %s", o->op_name, err);
     if (!o->dac)
         wdr_sim_set_effect(c->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
+    static const int temporal[] = {WDR_FX_SHOT, WDR_FX_KTC, WDR_FX_READ};
+    for (int k = 0; o->noise && k < 3; k++)
+        wdr_sim_set_effect(c->sim, temporal[k], WDR_FX_ON);
     c->ss = (wdr_cal_simsrc){c->sim, o->adc, 1000};
-    return EX_OK;
+    int rc = cal_design_for(b, o->op_name, wdr_sim_integration_time(c->sim), &c->design);
+    if (rc != EX_OK)
+        cal_close_sim(c);
+    return rc;
 }
 
 void cal_close_sim(sim_chip *c)
 {
     wdr_sim_destroy(c->sim);
     free(c->lut);
+    c->sim = NULL, c->lut = NULL;
 }
 
 /* ---- progress ---- */
@@ -204,23 +221,55 @@ void cal_grid_amps(double *amps, int *n)
         amps[k] = GRID_LO * pow(10, (double)k / GRID_PER_DECADE);
 }
 
+/* --frames auto: from the probe's measured noise (see wdr_cal_frames_for), printed with the reason. */
+static int choose_frames(const cal_opts *o, const wdr_cal_levels *probe, cal_run *r)
+{
+    double med[WDR_CAL_MAX_LEVELS];
+    if (wdr_cal_level_medians(probe, NULL, med))
+        return wdrctl_fail(EX_OSERR, "out of memory");
+    wdr_cal_frames_for(probe, med, r->lo, r->hi, o->adc ? 1.0 : 0.0, AUTO_FRAMES_TARGET_PCT, AUTO_FRAMES_MAX,
+                       &r->why);
+    r->frames = r->why.frames;
+    fprintf(stderr,
+            "wdrctl: --frames auto: %d frames per level (measured temporal noise %.3g codes per frame at %.3g A, "
+            "response %.3g codes per unit ln I: %d frames bring it below %.3g codes, %s)%s\n",
+            r->frames, r->why.sigma_codes, r->why.at_amps, r->why.slope, r->frames, r->why.want_codes,
+            r->why.want_codes > AUTO_FRAMES_TARGET_PCT / 100 * r->why.slope + 1e-12
+                ? "half the ADC quantisation floor"
+                : "a 0.5 % contrast error, half the eye's 1 % threshold",
+            r->why.capped ? " (capped)" : "");
+    return EX_OK;
+}
+
 /* Probe a grid of levels and pick the currents that minimise the worst contrast error. */
-static int select_from_probe(const cal_opts *o, const wdr_cal_source *src, wdr_cal_config *cfg, int n_cur,
-                             wdr_cal_choice *ch, double *lo, double *hi, wdr_cal_levels *grid)
+static int select_from_probe(const cal_opts *o, const wdr_cal_source *src, cal_run *r, int n_cur, wdr_cal_levels *grid)
 {
     char err[512];
     double amps[WDR_CAL_MAX_LEVELS];
     int n;
     cal_grid_amps(amps, &n);
-    int rc = wdr_cal_acquire(src, amps, n, 1, 1, cal_progress_fn(), "probe", grid, err, sizeof err);
+    int rc = wdr_cal_acquire(src, amps, n, PROBE_FRAMES, 1, cal_progress_fn(), "probe", grid, err, sizeof err);
     if (rc)
         return wdrctl_fail(EX_IOERR, "probe: %s", err);
-    if (wdr_cal_informative_range(grid, MIN_SLOPE_CODES, lo, hi))
+    if (wdr_cal_informative_range(grid, MIN_SLOPE_CODES, &r->lo, &r->hi))
         return wdrctl_fail(EX_DATAERR, "the response is flat everywhere: no current range carries contrast");
-    cfg->range_lo = *lo, cfg->range_hi = *hi;
-    if ((rc = wdr_cal_select_currents(grid, cfg, n_cur, *lo, *hi, o->sample, ch, err, sizeof err)))
+    r->cfg.range_lo = r->lo, r->cfg.range_hi = r->hi;
+    if ((rc = wdr_cal_select_currents(grid, &r->cfg, n_cur, r->lo, r->hi, o->sample, &r->choice, err, sizeof err)))
         return wdrctl_fail(EX_DATAERR, "current selection: %s", err);
-    return EX_OK;
+    return o->frames_auto ? choose_frames(o, grid, r) : EX_OK;
+}
+
+/* --frames auto with the currents given: two frames at each measure the noise. */
+static int probe_given(const cal_opts *o, const wdr_cal_source *src, cal_run *r, const double *amps, int n)
+{
+    char err[512];
+    wdr_cal_levels lv;
+    int rc = wdr_cal_acquire(src, amps, n, PROBE_FRAMES, 0, cal_progress_fn(), "noise probe", &lv, err, sizeof err);
+    if (rc) /* currents the fits cannot use are a data error, as in the calibration itself */
+        return wdrctl_fail(rc == WDR_E_INVAL ? EX_DATAERR : EX_IOERR, "calibrate: %s", err);
+    rc = choose_frames(o, &lv, r);
+    wdr_cal_levels_free(&lv);
+    return rc;
 }
 
 /* Currents as given (--currents, --levels-file), or chosen from a probe of the source. */
@@ -243,10 +292,10 @@ int cal_plan_currents(const cal_opts *o, const wdr_cal_source *src, cal_run *r, 
         r->lo = amps[0], r->hi = amps[n - 1];
         r->cfg.range_lo = r->lo, r->cfg.range_hi = r->hi;
         r->choice.worst_pct = NAN;
-        return EX_OK;
+        return o->frames_auto && n >= 2 ? probe_given(o, src, r, amps, n) : EX_OK;
     }
     wdr_cal_levels grid;
-    rc = select_from_probe(o, src, &r->cfg, n_cur, &r->choice, &r->lo, &r->hi, &grid);
+    rc = select_from_probe(o, src, r, n_cur, &grid);
     wdr_cal_levels_free(&grid);
     return rc;
 }
@@ -255,8 +304,10 @@ int cal_acquire_and_fit(const cal_opts *o, const wdr_cal_source *src, cal_run *r
 {
     char err[512];
     int ref = r->choice.n > 0 && r->choice.amps[0] == 0, n = r->choice.n - ref;
-    int rc = wdr_cal_acquire(src, r->choice.amps + ref, n, o->frames, 1, cal_progress_fn(), "calibrate", &r->levels, err,
-                             sizeof err);
+    if (!r->frames)
+        r->frames = o->frames;
+    int rc = wdr_cal_acquire(src, r->choice.amps + ref, n, r->frames, 1, cal_progress_fn(), "calibrate", &r->levels,
+                             err, sizeof err);
     if (rc)
         return wdrctl_fail(rc == WDR_E_INVAL ? EX_DATAERR : EX_IOERR, "calibrate: %s", err);
     if (ref) { /* the dark frame is the paper models' dark reference, as level 0 */
@@ -295,3 +346,10 @@ void cal_set_output(const cal_opts *o, wdr_cal_config *cfg, unsigned adc_bits)
     cfg->out_max = (uint16_t)(top < 65535 ? top : 65535);
 }
 
+
+void cal_set_step(const wdr_board *b, wdr_cal_config *cfg)
+{
+    double dac_lsb = (b->dac_hi_v - b->dac_lo_v) / ((1u << b->dac_bits) - 1u);
+    double codes_per_v = b->adc_gain * ((1u << b->adc_bits) - 1u) / (b->adc_hi_v - b->adc_lo_v);
+    cfg->step_codes = dac_lsb * codes_per_v;
+}

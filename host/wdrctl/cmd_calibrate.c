@@ -99,6 +99,7 @@ static void print_summary(const cal_opts *o, const cal_run *r)
         for (int k = 0; k < r->choice.n; k++)
             printf(" %.4g", r->choice.amps[k]);
         printf(" A (0: dark reference)\nworst contrast error at selection: %.4g %%\n", r->choice.worst_pct);
+        printf("frames per level: %d%s\n", r->frames, r->why.frames ? " (auto)" : "");
         return;
     }
     cJSON *j = cJSON_CreateObject();
@@ -111,6 +112,16 @@ static void print_summary(const cal_opts *o, const cal_run *r)
     if (isfinite(r->choice.worst_pct))
         cJSON_AddNumberToObject(j, "selection_worst_pct", r->choice.worst_pct);
     cJSON_AddNumberToObject(j, "pixels_flagged", (double)res->n_bad);
+    cJSON_AddNumberToObject(j, "frames_per_level", r->frames);
+    if (r->why.frames) { /* --frames auto: the level that decided and its figures */
+        cJSON *a = cJSON_AddObjectToObject(j, "frames_auto");
+        cJSON_AddNumberToObject(a, "target_pct", r->why.target_pct);
+        cJSON_AddNumberToObject(a, "decided_at_A", r->why.at_amps);
+        cJSON_AddNumberToObject(a, "noise_codes_per_frame", r->why.sigma_codes);
+        cJSON_AddNumberToObject(a, "slope_codes_per_ln_A", r->why.slope);
+        cJSON_AddNumberToObject(a, "wanted_codes", r->why.want_codes);
+        cJSON_AddBoolToObject(a, "capped", r->why.capped);
+    }
     static const char *flag_names[] = {"dead", "stuck", "hot", "saturated", "unfit"};
     cJSON *f = cJSON_AddObjectToObject(j, "flags");
     for (int b = 0; b < 5; b++)
@@ -168,8 +179,9 @@ int cmd_calibrate(int argc, char **argv)
     if (o.device) {
         device_src d;
         wdr_cal_source src;
-        if ((rc = open_device(&o, &d, &src)) == EX_OK) {
+        if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits);
+            cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */
             rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model);
             if (rc == EX_OK && o.upload)
                 rc = upload_table(&d, &r);
@@ -185,6 +197,8 @@ int cmd_calibrate(int argc, char **argv)
     if ((rc = cal_load_board(o.board, &b)) != EX_OK || (rc = cal_open_sim(&o, &b, &c)) != EX_OK)
         return rc;
     cal_set_output(&o, &r.cfg, (unsigned)b.adc_bits);
+    if (o.dac)
+        cal_set_step(&b, &r.cfg);
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
     rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model);

@@ -364,9 +364,32 @@ static void lut_margin_extends_the_ramp(void **state)
     free(buf);
 }
 
+/* Pool-adjacent-violators on a falling sequence: reversals pooled into their weighted mean, a
+ * falling sequence untouched; the tolerance from measured noise: tie + k sigma sqrt(2/M). */
+static void isotonic_pools_reversals(void **state)
+{
+    (void)state;
+    double y[6] = {10, 6, 7, 2, 3, 1}, w[6] = {1, 1, 1, 1, 3, 1}, out[6];
+    wdr_cal_isotonic_falling(y, w, 6, out);
+    double want[6] = {10, 6.5, 6.5, 2.75, 2.75, 1};
+    for (int k = 0; k < 6; k++)
+        assert_double_equal(out[k], want[k], 1e-12);
+    double f[4] = {9, 5, 5, 1}, g[4];
+    wdr_cal_isotonic_falling(f, w, 4, g);
+    for (int k = 0; k < 4; k++)
+        assert_double_equal(g[k], f[k], 0);
+    wdr_cal_levels lv = {.n = 2, .amps = {1e-12, 2e-12}, .noise = {1.0, 1.0}, .m_avg = 4};
+    wdr_cal_config cfg;
+    wdr_cal_config_defaults(&cfg, WDR_MODEL_SPLINE);
+    assert_double_equal(wdr_cal_tie_tolerance(&lv, &cfg, 1), 0.5 + 5 * sqrt(2.0 / 4), 1e-12);
+    lv.m_avg = 0; /* not measured: the quantisation tie alone */
+    assert_double_equal(wdr_cal_tie_tolerance(&lv, &cfg, 1), 0.5, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(isotonic_pools_reversals),
         cmocka_unit_test(simple3_closed_form_exact),   cmocka_unit_test(simple3_dark_parameter),
         cmocka_unit_test(complex4_linear_system_exact), cmocka_unit_test(lu_refuses_singular),
         cmocka_unit_test(qr_least_squares_line),       cmocka_unit_test(quadratic_root_without_cancellation),

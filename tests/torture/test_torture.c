@@ -1,6 +1,8 @@
 /* Torture: the calibration maths pushed to its edges on synthetic pixel responses (the shape of
  * the paper's pixel, with mismatch). Every case must give finite tables and flagged pixels,
- * never NaN or Inf, both in double (host recovery) and in the firmware's float32 kernel. */
+ * never NaN or Inf, both in double (host recovery) and in the firmware's float32 kernel, and
+ * asserts its expected outcome: the refusal and its error code, flag counts within bounds, and
+ * the healthy pixels' recovered currents within a stated error (tests/torture/README.md). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -39,10 +41,16 @@ static double response(int i, double x)
     return truth[i].a - truth[i].b * t / (1 + truth[i].c * t);
 }
 
-/* Levels at amps (plus a dark frame); noise in codes (rms) is added to every sample. */
+/* Levels at amps (plus a dark frame); noise in codes (rms) is added to every sample, and told to
+ * the noise-aware statistics as one frame's measured noise (m_avg 1). */
 static void make_levels(wdr_cal_levels *lv, const double *amps, int n, double noise)
 {
+    memset(lv, 0, sizeof *lv);
     lv->width = W, lv->height = H, lv->n = n;
+    lv->m_avg = noise > 0 ? 1 : 0;
+    lv->dark_noise = noise;
+    for (int k = 0; k < n; k++)
+        lv->noise[k] = noise;
     lv->frames = malloc(sizeof(float) * NP * (size_t)n);
     lv->dark = malloc(sizeof(float) * NP);
     for (int k = 0; k < n; k++) {
@@ -73,6 +81,29 @@ static long host_sweep_bad(const wdr_cal_result *res)
     return bad;
 }
 
+/* Worst |x_hat / x - 1| of the unflagged pixels at currents between the calibration levels
+ * (geometric midpoints within 1e-13..1e-9 A), noiseless responses. */
+static double worst_healthy_error(const wdr_cal_result *res, const wdr_cal_levels *lv)
+{
+    double worst = 0;
+    for (int k = 1; k < lv->n; k++) {
+        if (!(lv->amps[k - 1] > 0))
+            continue;
+        double x = sqrt(lv->amps[k - 1] * lv->amps[k]);
+        if (x < 1e-13 || x > 1e-9)
+            continue; /* where the response carries contrast: the ends are flat to a code */
+        for (int i = 0; i < NP; i++) {
+            int st;
+            if (!res->flags[i])
+                worst = fmax(worst, fabs(wdr_cal_recover(res, i, response(i, x), &st) / x - 1));
+        }
+    }
+    return worst;
+}
+
+static double last_healthy_error; /* of the last run_model that fitted */
+static int last_rc;               /* and its return code */
+
 /* Fit with one model, build its table, and check everything that must hold whatever the data. */
 static long run_model(const wdr_cal_levels *lv, int model, int form)
 {
@@ -87,6 +118,7 @@ static long run_model(const wdr_cal_levels *lv, int model, int form)
     cfg.range_lo = lv->amps[0] > 0 ? lv->amps[0] : lv->amps[1];
     cfg.range_hi = lv->amps[lv->n - 1];
     int rc = wdr_cal_fit_array(lv, &cfg, &res, err, sizeof err);
+    last_rc = rc;
     if (rc) {
         /* refusing is allowed, silently is not */
         assert_true(rc < 0 && err[0]);
@@ -95,6 +127,7 @@ static long run_model(const wdr_cal_levels *lv, int model, int form)
         return -1;
     }
     assert_int_equal(host_sweep_bad(&res), 0);
+    last_healthy_error = worst_healthy_error(&res, lv);
     if (wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err))
         fail_msg("table: %s", err);
     assert_int_equal(wdr_cal_parse(tb, tl, &v), WDR_OK);
@@ -110,13 +143,17 @@ static long run_model(const wdr_cal_levels *lv, int model, int form)
     return flagged;
 }
 
+/* Flagged pixels per model: simple3, complex4, lsq, polymap, spline (poly), spline (basis);
+ * -1 where the model refused. */
+static long flags_of[6];
+
 static void run_all_models(const wdr_cal_levels *all, const char *what)
 {
     int n = all->n, k3[4] = {-1, 0, n / 2, n - 1}, k4[5] = {-1, 0, n / 3, 2 * n / 3, n - 1};
     wdr_cal_levels l3, l4;
     with_dark_first(all, k3, 4, &l3);
     with_dark_first(all, k4, 5, &l4);
-    long f[6];
+    long *f = flags_of;
     f[0] = run_model(&l3, WDR_MODEL_SIMPLE3, WDR_FORM_MOEBIUS);
     f[1] = run_model(&l4, WDR_MODEL_COMPLEX4, WDR_FORM_POLY);
     wdr_cal_levels plain = *all;
@@ -124,7 +161,9 @@ static void run_all_models(const wdr_cal_levels *all, const char *what)
     f[2] = run_model(&plain, WDR_MODEL_LSQ, WDR_FORM_POLY);
     f[3] = run_model(&plain, WDR_MODEL_POLYMAP, WDR_FORM_POLY);
     f[4] = run_model(&plain, WDR_MODEL_SPLINE, WDR_FORM_POLY);
+    double spline_err = last_healthy_error;
     f[5] = run_model(&plain, WDR_MODEL_SPLINE, WDR_FORM_BASIS);
+    last_healthy_error = spline_err; /* the spline model's own recovery (the table form does not change it) */
     printf("  %s: flagged pixels (of %d) simple3 %ld, complex4 %ld, lsq %ld, polymap %ld, spline %ld, "
            "spline with the basis table %ld\n", what, NP, f[0], f[1], f[2], f[3], f[4], f[5]);
     l3.dark = l4.dark = NULL;
@@ -155,9 +194,18 @@ static void currents_over_eight_decades(void **state)
     log_levels(1e-15, 1e-7, 17, amps);
     make_levels(&lv, amps, 17, 0.0);
     run_all_models(&lv, "1e-15..1e-7 A, noiseless");
+    /* no pixel here is defective: the spline flags none, and recovers every one between its
+     * levels (half a decade apart) within 1 % over 1e-13..1e-9 A (measured 0.56 %) */
+    assert_int_equal(flags_of[4], 0);
+    assert_int_equal(flags_of[5], 0);
+    printf("  spline healthy recovery: worst %.3g %%\n", 100 * last_healthy_error);
+    assert_true(last_healthy_error < 0.01);
     wdr_cal_levels_free(&lv);
     make_levels(&lv, amps, 17, 0.3);
     run_all_models(&lv, "1e-15..1e-7 A, 0.3 code noise");
+    /* noise within its measured sigma is pooled, never flagged: at most 1 % of the healthy pixels */
+    assert_true(flags_of[4] >= 0 && flags_of[4] <= NP / 100);
+    assert_true(flags_of[5] >= 0 && flags_of[5] <= NP / 100);
     wdr_cal_levels_free(&lv);
 }
 
@@ -186,11 +234,13 @@ static void two_currents_within_a_thousandth(void **state)
     /* acquisition refuses such currents up front, naming them */
     char err[256] = "";
     wdr_cal_levels out;
-    wdr_cal_source src = {W, H, NULL, NULL};
+    wdr_cal_source src = {W, H, NULL, NULL}; /* no capture function: refused as a bad request */
     assert_int_equal(wdr_cal_acquire(&src, amps, 9, 1, 0, NULL, NULL, &out, err, sizeof err), WDR_E_INVAL);
-    wdr_cal_source ok_src = {W, H, synthetic_capture, NULL};
+    assert_non_null(strstr(err, "bad acquisition request"));
+    wdr_cal_source ok_src = {W, H, synthetic_capture, NULL}; /* a working source: refused for the currents */
     assert_int_equal(wdr_cal_acquire(&ok_src, amps, 9, 1, 0, NULL, NULL, &out, err, sizeof err), WDR_E_INVAL);
     assert_non_null(strstr(err, "1e-11"));
+    assert_non_null(strstr(err, "differ by"));
     printf("  acquisition: %s\n", err);
     wdr_cal_levels_free(&lv);
 }
@@ -258,6 +308,7 @@ static void bad_pixels_flagged(void **state)
     assert_true(res.flags[FLAT] & WDR_PIX_UNFIT);
     assert_true(res.flags[REV] & WDR_PIX_UNFIT);
     assert_true(res.flags[NANPIX] != 0);
+    assert_int_equal(res.n_bad, 7); /* the seven planted, no healthy pixel */
     assert_int_equal(host_sweep_bad(&res), 0);
     uint8_t *tb;
     size_t tl;
@@ -321,6 +372,20 @@ static void reversed_array_refused(void **state)
         for (int i = 0; i < NP; i++)
             lv.frames[k * NP + i] = (float)(500 + 10 * k);
     run_all_models(&lv, "rising response (every pixel reversed)");
+    /* the curve models have no nominal curve to fit: refused with WDR_E_NUMERIC; the paper
+     * models may fit, but then every pixel must be flagged */
+    for (int m = 0; m < 6; m++)
+        assert_true(flags_of[m] == -1 || flags_of[m] == NP);
+    assert_int_equal(flags_of[4], -1);
+    assert_int_equal(flags_of[5], -1);
+    wdr_cal_levels plain = lv;
+    wdr_cal_config cfg;
+    wdr_cal_result res;
+    char err[256] = "";
+    wdr_cal_config_defaults(&cfg, WDR_MODEL_SPLINE);
+    assert_int_equal(wdr_cal_fit_array(&plain, &cfg, &res, err, sizeof err), WDR_E_NUMERIC);
+    assert_non_null(strstr(err, "median response"));
+    wdr_cal_result_free(&res);
     wdr_cal_levels_free(&lv);
 }
 

@@ -1,0 +1,41 @@
+/* Internal to the calibration fits (host/cal/cal_*.c): what the split files share. Not for
+ * callers outside host/cal; the public interface is cal_fit.h. */
+#ifndef WDR_CAL_FIT_INTERNAL_H
+#define WDR_CAL_FIT_INTERNAL_H
+#include "cal_fit.h"
+
+/* Step that keeps a repaired falling curve strictly falling (codes). */
+#define WDR_CAL_TIE_STEP 1e-5
+
+/* cal_bad.c: median of the finite values among n (scratch holds n floats). */
+double wdr_cal_median_of(const float *v, long n, float *scratch);
+
+/* cal_fit.c */
+int wdr_cal_is_curve_model(int model);
+
+/* cal_fit_paper.c: SIMPLE3/COMPLEX4 per pixel, the POLYMAP map and its variable */
+double wdr_cal_poly_u(const wdr_cal_result *res, double y);
+double wdr_cal_poly_eval(const double *c, int n, double u);
+int wdr_cal_fit_paper_pixel(const wdr_cal_result *res, const double *u, const double *y, double *par);
+int wdr_cal_fit_polymap_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w,
+                              int n, double *par);
+
+/* cal_fit_lsq.c */
+int wdr_cal_fit_lsq_pixel(const wdr_cal_result *res, const double *y, const double *u, int n, const double *med,
+                          double *theta);
+double wdr_cal_lsq_recover_u(const wdr_cal_result *res, const double *theta, double y);
+
+/* cal_fit_spline.c */
+int wdr_cal_falling_fit(const double *y, int n, const double *tol, const double *w, double *out);
+int wdr_cal_fit_spline_pixel(const double *y, const double *med, int n, const double *tol, const double *w,
+                             double *par);
+/* Per level: the pair tolerances tol[k] (k-1, k) and weights 1/sd^2 for the falling fit. */
+void wdr_cal_level_tolerances(const wdr_cal_levels *lv, const wdr_cal_config *cfg, double *tol, double *w);
+double wdr_cal_spline_recover(const wdr_cal_result *res, const double *par, double y);
+
+/* cal_nominal.c */
+double wdr_nominal_invert_lx(const wdr_nominal *n, double z);
+int wdr_nominal_build_inverse_table(wdr_nominal *n);
+int wdr_cal_fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const double *med, char *err, int errlen);
+
+#endif

@@ -1,0 +1,68 @@
+/* The paper's models per pixel (SIMPLE3, COMPLEX4) and the polynomial code map (POLYMAP). */
+#include "cal_fit_internal.h"
+#include "wdr_err.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The POLYMAP map's input variable: raw codes onto [-1, 1], the same as the table header's. */
+double wdr_cal_poly_u(const wdr_cal_result *res, double y) { return 2 * y / res->cfg.raw_max - 1; }
+
+double wdr_cal_poly_eval(const double *c, int n, double u)
+{
+    double v = c[n - 1];
+    for (int k = n - 2; k >= 0; k--)
+        v = v * u + c[k];
+    return v;
+}
+
+/* Fit one pixel with a paper model; u[] and y[] already ordered (dark reference first). */
+int wdr_cal_fit_paper_pixel(const wdr_cal_result *res, const double *u, const double *y, double *par)
+{
+    int st, ref = res->cfg.use_dark_ref;
+    if (res->model == WDR_MODEL_SIMPLE3) {
+        wdr_simple3 m = {.x_scale = res->x_scale};
+        st = ref ? wdr_simple3_fit_dark(u + 1, y + 1, u[0], y[0], &m) : wdr_simple3_fit3(u, y, &m);
+        par[0] = m.a, par[1] = m.b, par[2] = m.c, par[3] = m.d;
+    } else {
+        wdr_complex4 m = {.x_scale = res->x_scale};
+        st = ref ? wdr_complex4_fit_dark(u + 1, y + 1, u[0], y[0], &m) : wdr_complex4_fit4(u, y, &m);
+        par[0] = m.p, par[1] = m.q, par[2] = m.r, par[3] = m.s, par[4] = m.d;
+    }
+    return st;
+}
+
+/* POLYMAP: the polynomial map from this pixel's codes to the nominal codes at the same currents,
+ * weighted so each residual is in units of ln x (i.e. relative current, the contrast error). */
+int wdr_cal_fit_polymap_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w,
+                         int n, double *par)
+{
+    int nc = res->n_params;
+    double a[WDR_CAL_MAX_LEVELS * WDR_CAL_MAX_COEFFS], t[WDR_CAL_MAX_LEVELS], rcond;
+    for (int k = 0; k < n; k++) {
+        double u = wdr_cal_poly_u(res, y[k]), p = 1;
+        for (int j = 0; j < nc; j++, p *= u)
+            a[k * nc + j] = p;
+        t[k] = target[k];
+    }
+    int st = wdr_lsq_solve(a, t, w, n, nc, par, &rcond);
+    if (st)
+        return st;
+    double ss = 0;
+    for (int k = 0; k < n; k++) {
+        double r = (wdr_cal_poly_eval(par, nc, wdr_cal_poly_u(res, y[k])) - target[k]) * w[k];
+        ss += r * r;
+    }
+    if (!(sqrt(ss / n) <= res->cfg.max_residual))
+        return WDR_FIT_RESIDUAL;
+    /* the map must keep the pixel's order of brightness across its calibrated span */
+    for (int s = 0; s <= 16; s++) {
+        double yy = y[n - 1] + (y[0] - y[n - 1]) * s / 16.0, u = wdr_cal_poly_u(res, yy), dv = 0, p = 1;
+        for (int j = 1; j < nc; j++, p *= u)
+            dv += j * par[j] * p;
+        if (!(dv > 0))
+            return WDR_FIT_REVERSED;
+    }
+    return WDR_FIT_OK;
+}
