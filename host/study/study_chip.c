@@ -98,6 +98,7 @@ static int new_sim(study_chip *c, uint64_t seed, int temporal, char *err, int er
     static const int noise[] = {WDR_FX_SHOT, WDR_FX_KTC, WDR_FX_READ};
     for (int k = 0; k < 3; k++)
         wdr_sim_set_effect(c->sim, noise[k], temporal ? WDR_FX_ON : WDR_FX_OFF);
+    wdr_sim_set_effect(c->sim, WDR_FX_DEFECTS, WDR_FX_OFF); /* a clean chip: every flag is a false one */
     if ((rc = wdr_sim_set_lut(c->sim, &lut)))
         snprintf(err, (size_t)errlen, "simulator refused the LUT: %s", wdr_strerror(rc));
     return rc;

@@ -2,6 +2,7 @@
  * build the firmware table, then judge it on uniform images over the requested range and cost
  * it. Everything runs from the study's seed: the same point gives the same bits. */
 #include "cal_basis.h"
+#include "cal_design.h"
 #include "cal_select.h"
 #include "correct.h"
 #include "study_internal.h"
@@ -42,6 +43,7 @@ static void set_temporal(wdr_sim *sim, int on)
 /* ---- calibration ---- */
 
 typedef struct calib {
+    wdr_cal_design design; /* the designed response: the spline's end slopes (as wdrctl calibrate) */
     wdr_cal_config cfg;
     wdr_cal_levels lv;
     wdr_cal_result res;
@@ -161,7 +163,13 @@ static int calibrate(const study *s, const study_point *p, study_chip *chip, cal
     c->cfg.raw_max = (1u << p->adc_bits) - 1u;
     c->cfg.out_max = (uint16_t)c->cfg.raw_max;
     c->cfg.range_lo = s->range_lo, c->cfg.range_hi = s->range_hi;
-    int rc = p->levels_choice == STUDY_LEVELS_SELECT ? acquire_select(s, p, &src, c, err, sizeof err)
+    const wdr_board *b = &chip->b;
+    int rc = wdr_cal_design_init(&c->design, b, p->op, chip->t_ramp_s, b->height / 2 * b->row_time_s, 1, err,
+                                 sizeof err);
+    if (rc)
+        return snprintf(r->why, sizeof r->why, "designed response: %s", err), rc;
+    c->cfg.design = &c->design;
+    rc = p->levels_choice == STUDY_LEVELS_SELECT ? acquire_select(s, p, &src, c, err, sizeof err)
                                                        : acquire_log(s, p, &src, c, err, sizeof err);
     if (rc)
         return snprintf(r->why, sizeof r->why, "acquisition: %s", err), rc;
