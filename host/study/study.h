@@ -133,6 +133,8 @@ void study_print_fronts(const study *s);
 /* The cheapest points meeting target_pct, by the total error and by FPN alone (what calibration
  * reaches once the image's temporal noise is averaged away), or why none does (the limiting knob). */
 void study_print_target(const study *s, double target_pct);
+/* What each knob buys: the best total and FPN-alone error at each value of every swept knob. */
+void study_print_knobs(const study *s);
 /* study.json in outdir (and on stdout with to_stdout), with the answer for each of n targets.
  * @return a sysexits code */
 int study_write_json(const study *s, const char *outdir, const double *targets, int n, double wall_s, int to_stdout);

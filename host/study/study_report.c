@@ -122,9 +122,9 @@ static const char *const knob_names[N_KNOBS] = {"adc-bits", "dac-bits", "convert
                                                 "frames", "image-frames", "levels", "coeff-bits", "operator"};
 
 /* For every knob with more than one value: the best worst-total error reached at each value. */
-static void print_knob_table(const study *s)
+static void print_knob_table(const study *s, int a)
 {
-    printf("\nwhat each knob buys (best worst-total error among the points with that value):\n");
+    printf("\nwhat each knob buys (best %s among the points with that value):\n", study_acc_name(a));
     for (int k = 0; k < N_KNOBS; k++) {
         char vals[32][64];
         double best[32];
@@ -138,7 +138,7 @@ static void print_knob_table(const study *s)
             if (j == nv && nv < 32)
                 snprintf(vals[nv], sizeof vals[nv], "%s", v), best[nv++] = INFINITY;
             if (j < nv && s->res[i].ok)
-                best[j] = fmin(best[j], s->res[i].worst_total_pct);
+                best[j] = fmin(best[j], study_acc_value(&s->res[i], a));
         }
         if (nv < 2)
             continue;
@@ -146,6 +146,54 @@ static void print_knob_table(const study *s)
         for (int j = 0; j < nv; j++)
             printf(" %s: %.3g %%%s", vals[j], best[j], j + 1 < nv ? "," : "\n");
     }
+}
+
+/* The limiting knob: the numeric knob whose best figure still improves most at the largest value
+ * swept (more of it may help). Knobs swept over one value only are named, as not explored. */
+static void print_edge_knob(const study *s, int a)
+{
+    static const int numeric[] = {0, 1, 6, 7, 8, 9};
+    int best_k = -1, single[6], n_single = 0;
+    double best_gain = 1.1, last_v = 0, prev_v = 0, last_f = 0, prev_f = 0; /* a 10 % step counts */
+    for (size_t q = 0; q < sizeof numeric / sizeof numeric[0]; q++) {
+        double vals[32], best[32];
+        int nv = 0;
+        for (int i = 0; i < s->n; i++) {
+            char t[64];
+            knob_value(&s->pts[i], numeric[q], t, sizeof t);
+            double v = atof(t);
+            int j = 0;
+            while (j < nv && vals[j] != v)
+                j++;
+            if (j == nv && nv < 32)
+                vals[nv] = v, best[nv++] = INFINITY;
+            if (j < nv && s->res[i].ok)
+                best[j] = fmin(best[j], study_acc_value(&s->res[i], a));
+        }
+        if (nv < 2) {
+            single[n_single++] = numeric[q];
+            continue;
+        }
+        int hi = 0, nx = -1; /* the largest value and the one below it */
+        for (int j = 1; j < nv; j++)
+            hi = vals[j] > vals[hi] ? j : hi;
+        for (int j = 0; j < nv; j++)
+            if (j != hi && (nx < 0 || vals[j] > vals[nx]))
+                nx = j;
+        double gain = best[nx] / best[hi];
+        if (gain > best_gain)
+            best_gain = gain, best_k = numeric[q], last_v = vals[hi], prev_v = vals[nx], last_f = best[hi],
+            prev_f = best[nx];
+    }
+    if (best_k >= 0)
+        printf("  limiting knob: %s: still improving at its largest value (best %.3g at %g, %.3g at %g): more of it "
+               "may help\n", knob_names[best_k], prev_f, prev_v, last_f, last_v);
+    else
+        printf("  limiting knob: none swept still improves by 10 %% at its largest value: the model and table form "
+               "set the limit here\n");
+    for (int k = 0; k < n_single; k++)
+        if (single[k] == 6 || single[k] == 7) /* frames: the knobs that buy noise down */
+            printf("  not swept: %s (one value)\n", knob_names[single[k]]);
 }
 
 /* The most accurate point by figure a, and the part of its error that keeps it above the target. */
@@ -169,16 +217,8 @@ static void print_limit(const study *s, int a, double target)
     if (a == STUDY_ACC_TOTAL && r->worst_temporal_pct > target)
         printf("  limiting knob: image-frames (%d): the image's temporal noise alone is %.3g %%, and it falls only "
                "as 1/sqrt(frames)\n", p->frames_img, r->worst_temporal_pct);
-    else if (r->floor_adc_pct > target)
-        printf("  limiting knob: adc-bits (%d): one ADC code alone is %.3g %% of contrast where the response is "
-               "flattest; more bits, or converter-ranges fit\n", p->adc_bits, r->floor_adc_pct);
-    else if (r->floor_pct > target)
-        printf("  limiting knob: dac-bits (%d) or the ramp timing: the DAC step sets a floor of %.3g %%\n", p->dac_bits,
-               r->floor_pct);
     else
-        printf("  limiting knob: the calibration (model %s, form %s, levels, frames %d): FPN after correction is "
-               "%.3g %% above a floor of %.3g %%\n", model_name(p->model), form_name(p->form), p->frames_cal,
-               r->worst_fpn_pct, r->floor_pct);
+        print_edge_knob(s, a);
 }
 
 static void print_cheapest(const study *s, int a, double target)
@@ -205,7 +245,12 @@ void study_print_target(const study *s, double target)
 {
     print_cheapest(s, STUDY_ACC_TOTAL, target);
     print_cheapest(s, STUDY_ACC_FPN, target);
-    print_knob_table(s);
+}
+
+void study_print_knobs(const study *s)
+{
+    print_knob_table(s, STUDY_ACC_TOTAL);
+    print_knob_table(s, STUDY_ACC_FPN);
 }
 
 /* ---- JSON ---- */

@@ -143,6 +143,7 @@ static int outputs(const study *s, const study_opts *o, double wall)
         study_print_fronts(s);
         for (int t = 0; t < o->n_targets; t++)
             study_print_target(s, o->target[t]);
+        study_print_knobs(s);
         printf("\n%d points in %.1f s on %d jobs (%.2f s per point per job)\n", s->n, wall, s->jobs,
                wall * s->jobs / s->n);
     }
