@@ -406,7 +406,8 @@ static int write_data(const study *s, int c, const char *dir, char *all, char *f
     int *idx = malloc(sizeof(int) * (size_t)s->n), ok = fa && ff && idx;
     for (int i = 0; ok && i < s->n; i++)
         if (s->res[i].ok)
-            fprintf(fa, "%g %g %g\n", study_cost_value(&s->res[i], c), s->res[i].worst_total_pct, s->res[i].floor_pct);
+            fprintf(fa, "%g %g %g %g\n", study_cost_value(&s->res[i], c), s->res[i].worst_total_pct,
+                    s->res[i].floor_pct, s->res[i].worst_fpn_pct);
     for (int a = 0; ok && a < 3; a++) { /* total, FPN alone and floor fronts, one block each */
         int m = study_front(s, a == 0 ? STUDY_ACC_TOTAL : a == 1 ? STUDY_ACC_FPN : STUDY_ACC_FLOOR, c, idx);
         for (int k = 0; k < m; k++)
@@ -433,13 +434,14 @@ static int plot_one(const study *s, int c, const char *file, const char *xlabel,
              "set xlabel '%s'\nset ylabel 'worst contrast error over %.3g..%.3g A (%%)'\n"
              "set title 'What accuracy costs: %s (%d points, %s)'\n"
              "plot '%s' u ($1*%g):2 w p pt 7 ps 0.6 lc rgb '#b0b0b0' t 'every point (total)', "
+             "'%s' u ($1*%g):4 w p pt 6 ps 0.6 lc rgb '#a0c0f0' t 'every point (FPN alone)', "
              "'%s' index 0 u ($1*%g):2 w steps lw 2 lc rgb '#c00000' t 'front: total (FPN + temporal)', "
              "'%s' index 0 u ($1*%g):2 w p pt 7 ps 1 lc rgb '#c00000' notitle, "
              "'%s' index 1 u ($1*%g):2 w steps lw 1.5 dt 2 lc rgb '#0050c0' t 'front: FPN alone', "
              "'%s' index 2 u ($1*%g):2 w steps lw 1.5 dt 3 lc rgb '#208020' t 'front: quantisation floor'",
              outdir, file, xlabel, s->range_lo, s->range_hi, s->pts[0].op, s->n,
-             study_cost_measured(c) ? "measured here" : "modelled from the board", all, xscale, front, xscale, front,
-             xscale, front, xscale, front, xscale);
+             study_cost_measured(c) ? "measured here" : "modelled from the board", all, xscale, all, xscale, front,
+             xscale, front, xscale, front, xscale, front, xscale);
     for (int t = 0; t < n_targets && len < (int)sizeof script - 64; t++)
         len += snprintf(script + len, sizeof script - (size_t)len, ", %g w l lc rgb 'black' dt 4 t 'target %.3g %%'",
                         targets[t], targets[t]);

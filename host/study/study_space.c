@@ -318,9 +318,22 @@ static int form_valid(const study_point *p)
     return p->n_coeffs == 0 || p->n_coeffs >= 2;
 }
 
+static int same_double(double a, double b) { return a == b || (isnan(a) && isnan(b)); }
+
+static int same_point(const study_point *a, const study_point *b)
+{
+    return a->adc_bits == b->adc_bits && a->dac_bits == b->dac_bits && a->fit_ranges == b->fit_ranges &&
+           same_double(a->adc_lo_v, b->adc_lo_v) && same_double(a->adc_hi_v, b->adc_hi_v) &&
+           same_double(a->dac_lo_v, b->dac_lo_v) && same_double(a->dac_hi_v, b->dac_hi_v) && a->timing == b->timing &&
+           a->uniform_entries == b->uniform_entries && a->dac_timer_hz == b->dac_timer_hz && !strcmp(a->op, b->op) &&
+           !strcmp(a->op_params, b->op_params) && a->model == b->model && a->form == b->form &&
+           a->n_coeffs == b->n_coeffs && a->coeff_bits == b->coeff_bits && a->n_levels == b->n_levels &&
+           a->levels_choice == b->levels_choice && a->frames_cal == b->frames_cal && a->frames_img == b->frames_img &&
+           a->width == b->width && a->height == b->height;
+}
+
 static void fill_point(const space *sp, const int *i, study_point *p)
 {
-    memset(p, 0, sizeof *p); /* padding too: points are compared bytewise */
     *p = (study_point){.adc_bits = sp->adc[i[D_ADC]], .adc_lo_v = sp->adc_lo[i[D_ADCR]], .adc_hi_v = sp->adc_hi[i[D_ADCR]],
                        .dac_bits = sp->dac[i[D_DAC]], .dac_lo_v = sp->dac_lo[i[D_DACR]], .dac_hi_v = sp->dac_hi[i[D_DACR]],
                        .fit_ranges = sp->fit[i[D_FIT]], .timing = sp->tim[i[D_TIM]],
@@ -352,7 +365,7 @@ int study_expand(const study_knobs *k, study *s, int *skipped)
         for (int d = 0; d < D_COUNT; d++)
             dup |= idx[d] > 0 && !knob_acts(&p, d);
         for (int q = s->n - 1; !dup && q >= 0; q--) /* "auto" may name a form also listed */
-            dup = !memcmp(&s->pts[q], &p, sizeof p);
+            dup = same_point(&s->pts[q], &p);
         if (!dup && !form_valid(&p))
             ++*skipped;
         else if (!dup && s->n == STUDY_MAX_POINTS)
