@@ -23,7 +23,8 @@ static int point_coeffs(const study_point *p)
 {
     if (p->form == WDR_FORM_MOEBIUS)
         return 3;
-    return p->n_coeffs ? p->n_coeffs : p->model == WDR_MODEL_SPLINE ? 8 : 5;
+    /* the defaults of wdr_cal_config_defaults */
+    return p->n_coeffs ? p->n_coeffs : p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_SPLINE ? 8 : 5;
 }
 
 void study_point_label(const study_point *p, char *out, int outlen)
