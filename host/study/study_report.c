@@ -439,10 +439,12 @@ static int plot_one(const study *s, int c, const char *file, const char *xlabel,
              "'%s' index 0 u ($1*%g):2 w steps lw 2 lc rgb '#c00000' t 'front: total (FPN + temporal)', "
              "'%s' index 0 u ($1*%g):2 w p pt 7 ps 1 lc rgb '#c00000' notitle, "
              "'%s' index 1 u ($1*%g):2 w steps lw 1.5 dt 2 lc rgb '#0050c0' t 'front: FPN alone', "
-             "'%s' index 2 u ($1*%g):2 w steps lw 1.5 dt 3 lc rgb '#208020' t 'front: quantisation floor'",
+             "'%s' index 1 u ($1*%g):2 w p pt 5 ps 0.8 lc rgb '#0050c0' notitle, "
+             "'%s' index 2 u ($1*%g):2 w steps lw 1.5 dt 3 lc rgb '#208020' t 'front: quantisation floor', "
+             "'%s' index 2 u ($1*%g):2 w p pt 9 ps 0.8 lc rgb '#208020' notitle",
              outdir, file, xlabel, s->range_lo, s->range_hi, s->pts[0].op, s->n,
              study_cost_measured(c) ? "measured here" : "modelled from the board", all, xscale, all, xscale, front,
-             xscale, front, xscale, front, xscale, front, xscale);
+             xscale, front, xscale, front, xscale, front, xscale, front, xscale, front, xscale);
     for (int t = 0; t < n_targets && len < (int)sizeof script - 64; t++)
         len += snprintf(script + len, sizeof script - (size_t)len, ", %g w l lc rgb 'black' dt 4 t 'target %.3g %%'",
                         targets[t], targets[t]);
