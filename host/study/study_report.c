@@ -36,8 +36,12 @@ void study_point_label(const study_point *p, char *out, int outlen)
         snprintf(timing, sizeof timing, "stamped");
     if (p->fit_ranges)
         snprintf(ranges, sizeof ranges, "fit");
-    else if (isfinite(p->adc_lo_v) || isfinite(p->dac_lo_v))
+    else if (isfinite(p->adc_lo_v) && isfinite(p->dac_lo_v))
         snprintf(ranges, sizeof ranges, "adc%g:%g,dac%g:%g", p->adc_lo_v, p->adc_hi_v, p->dac_lo_v, p->dac_hi_v);
+    else if (isfinite(p->adc_lo_v))
+        snprintf(ranges, sizeof ranges, "adc%g:%g", p->adc_lo_v, p->adc_hi_v);
+    else if (isfinite(p->dac_lo_v))
+        snprintf(ranges, sizeof ranges, "dac%g:%g", p->dac_lo_v, p->dac_hi_v);
     snprintf(out, (size_t)outlen, "adc%d dac%d %s %s %s %s/%s%d%s L%d%s M%d F%d %dx%d%s%s", p->adc_bits, p->dac_bits,
              ranges, timing, p->op, model_name(p->model), form_name(p->form), point_coeffs(p),
              p->coeff_bits < 32 ? "h" : "", p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_COMPLEX4 ? 4 : p->n_levels,
