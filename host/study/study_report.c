@@ -222,8 +222,7 @@ static void print_limit(const study *s, int a, double target)
     if (a == STUDY_ACC_TOTAL && r->worst_temporal_pct > target)
         printf("  limiting knob: image-frames (%d): the image's temporal noise alone is %.3g %%, and it falls only "
                "as 1/sqrt(frames)\n", p->frames_img, r->worst_temporal_pct);
-    else
-        print_edge_knob(s, a);
+    print_edge_knob(s, a); /* averaging also dithers the converters: the knob that still pays, too */
 }
 
 static void print_cheapest(const study *s, int a, double target)
