@@ -18,24 +18,24 @@ enum study_levels_choice {
 /* One design. Voltages NAN: the board's own. */
 typedef struct study_point {
     int adc_bits, dac_bits;
-    int fit_ranges;              /* 1: each converter's range fitted to the signal it sees */
+    int fit_ranges; /* 1: each converter's range fitted to the signal it sees */
     double adc_lo_v, adc_hi_v, dac_lo_v, dac_hi_v;
-    int timing;                  /* enum wdr_lut_timing */
-    uint32_t uniform_entries;    /* UNIFORM: clock ticks over the ramp */
-    double dac_timer_hz;         /* STAMPED: resolution of the step times */
+    int timing;               /* enum wdr_lut_timing */
+    uint32_t uniform_entries; /* UNIFORM: clock ticks over the ramp */
+    double dac_timer_hz;      /* STAMPED: resolution of the step times */
     char op[32];
     char op_params[STUDY_OP_PARAMS]; /* "key=value;key=value" (empty: defaults) */
-    int model, form, n_coeffs;   /* enum wdr_cal_model_id, enum wdr_cal_form; n_coeffs 0: default */
-    int coeff_bits;              /* 32: float32 as stored; 16: rounded to IEEE half (modelled bytes) */
-    int n_levels, levels_choice; /* N-current models; the paper models take 3 / 4 plus dark */
-    int frames_cal, frames_img;  /* frames averaged per calibration level, and in the image */
-    int width, height;           /* simulated array (a sample of the board's) */
+    int model, form, n_coeffs;       /* enum wdr_cal_model_id, enum wdr_cal_form; n_coeffs 0: default */
+    int coeff_bits;                  /* 32: float32 as stored; 16: rounded to IEEE half (modelled bytes) */
+    int n_levels, levels_choice;     /* N-current models; the paper models take 3 / 4 plus dark */
+    int frames_cal, frames_img;      /* frames averaged per calibration level, and in the image */
+    int width, height;               /* simulated array (a sample of the board's) */
 } study_point;
 
 /* What one point costs and reaches. Costs are per the board's full geometry unless named. */
 typedef struct study_result {
     int ok;
-    char why[200];               /* when !ok: what failed */
+    char why[200]; /* when !ok: what failed */
     /* accuracy, % of contrast (100 sd across pixels of ln(x_hat / x), cal_metrics.h) over the range */
     double worst_total_pct, median_total_pct; /* one image of frames_img frames, noise on */
     double worst_fpn_pct, median_fpn_pct;     /* the same image without temporal noise */
@@ -48,30 +48,30 @@ typedef struct study_result {
     double beyond_frac;                       /* worst share of readings past the curve's ends */
     /* costs: modelled from the board description */
     double t_reset_s, t_ramp_s, t_readout_s, frame_s;
-    double image_s;                           /* frames averaged in the image x frame time */
-    double cal_s;                             /* (levels + dark) x frames x frame time */
-    double table_bpp, table_bytes;            /* per pixel; total at the board's size */
-    double bandwidth_Bps;                     /* table bytes read per second at the study's fps */
+    double image_s;                /* frames averaged in the image x frame time */
+    double cal_s;                  /* (levels + dark) x frames x frame time */
+    double table_bpp, table_bytes; /* per pixel; total at the board's size */
+    double bandwidth_Bps;          /* table bytes read per second at the study's fps */
     /* costs: measured here */
-    double fit_s_per_mp;                      /* fit + table build per megapixel (+ the basis's fixed learning) */
-    double correct_ns_px;                     /* float32 correction kernel, per pixel */
-    double m7_instr_px;                       /* NAN: no Cortex-M7 bench in this tree */
+    double fit_s_per_mp;  /* fit + table build per megapixel (+ the basis's fixed learning) */
+    double correct_ns_px; /* float32 correction kernel, per pixel */
+    double m7_instr_px;   /* NAN: no Cortex-M7 bench in this tree */
     /* what the point used */
     double adc_lo_v, adc_hi_v, dac_lo_v, dac_hi_v;
     int levels_used;
-    double eval_s;                            /* wall time of this point */
+    double eval_s; /* wall time of this point */
 } study_result;
 
 /* The study as asked: the points, and what is shared by all of them. */
 typedef struct study {
     const char *board;
-    double range_lo, range_hi;  /* requested photocurrent range (A) */
-    double fps;                 /* frame rate for the table bandwidth */
+    double range_lo, range_hi; /* requested photocurrent range (A) */
+    double fps;                /* frame rate for the table bandwidth */
     uint64_t seed;
     int jobs;
     int n;
-    study_point *pts;           /* malloc'd, n */
-    study_result *res;          /* malloc'd, n */
+    study_point *pts;  /* malloc'd, n */
+    study_result *res; /* malloc'd, n */
 } study;
 
 /* ---- study_space.c: knobs as lists and ranges ---- */
@@ -79,8 +79,8 @@ typedef struct study {
 /* The knobs as text, one list per knob, as on the command line (NULL: the default). */
 typedef struct study_knobs {
     const char *adc_bits, *adc_range, *dac_bits, *dac_range, *ranges, *timing, *entries, *timer_hz;
-    const char *op, *params, *model, *form, *coeffs, *coeff_bits, *levels, *levels_choice, *frames,
-        *image_frames, *size;
+    const char *op, *params, *model, *form, *coeffs, *coeff_bits, *levels, *levels_choice, *frames, *image_frames,
+        *size;
 } study_knobs;
 
 /* Fill a study file's keys (JSON object, keys as the long options) into k; strings are owned by
@@ -112,8 +112,15 @@ int study_run(study *s, int show_progress, double *wall_s);
 /* ---- study_pareto.c: fronts and the target ---- */
 
 enum study_acc { STUDY_ACC_TOTAL, STUDY_ACC_FPN, STUDY_ACC_FLOOR, STUDY_ACC_DISPLAY, STUDY_ACC_COUNT };
-enum study_cost { STUDY_COST_FRAME, STUDY_COST_CAL, STUDY_COST_TABLE, STUDY_COST_BANDWIDTH, STUDY_COST_CORRECT,
-                  STUDY_COST_FIT, STUDY_COST_COUNT };
+enum study_cost {
+    STUDY_COST_FRAME,
+    STUDY_COST_CAL,
+    STUDY_COST_TABLE,
+    STUDY_COST_BANDWIDTH,
+    STUDY_COST_CORRECT,
+    STUDY_COST_FIT,
+    STUDY_COST_COUNT
+};
 const char *study_acc_name(int a);
 const char *study_acc_unit(int a);
 const char *study_cost_name(int c);

@@ -26,4 +26,7 @@ void study_frame_time(const wdr_board *b, int adc_bits, double t_ramp_s, study_r
     r->frame_s = r->t_reset_s + r->t_ramp_s + r->t_readout_s;
 }
 
-double study_cal_time(const study_result *r, int levels, int frames) { return (levels + 1.0) * frames * r->frame_s; }
+double study_cal_time(const study_result *r, int levels, int frames)
+{
+    return (levels + 1.0) * frames * r->frame_s;
+}

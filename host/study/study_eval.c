@@ -13,7 +13,7 @@
 #include <string.h>
 #include <time.h>
 
-#define N_EVAL 24              /* judged currents, log-spaced over the requested range */
+#define N_EVAL 24 /* judged currents, log-spaced over the requested range */
 #define FRAME_SEED_EVAL 100000000ull
 #define DISPLAY_GAMMA 2.2
 
@@ -53,7 +53,10 @@ typedef struct calib {
     int levels_acquired; /* light levels captured on the board (the dark frame not counted) */
 } calib;
 
-static int levels_needed(const study_point *p) { return p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_COMPLEX4 ? 4 : p->n_levels; }
+static int levels_needed(const study_point *p)
+{
+    return p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_COMPLEX4 ? 4 : p->n_levels;
+}
 
 /* Log-spaced levels over the range, M frames each plus dark; the paper models get the dark
  * frame as their dark-end reference (level 0), as `wdrctl calibrate` does. */
@@ -164,13 +167,13 @@ static int calibrate(const study *s, const study_point *p, study_chip *chip, cal
     c->cfg.out_max = (uint16_t)c->cfg.raw_max;
     c->cfg.range_lo = s->range_lo, c->cfg.range_hi = s->range_hi;
     const wdr_board *b = &chip->b;
-    int rc = wdr_cal_design_init(&c->design, b, p->op, chip->t_ramp_s, b->height / 2 * b->row_time_s, 1, err,
-                                 sizeof err);
+    int rc =
+        wdr_cal_design_init(&c->design, b, p->op, chip->t_ramp_s, b->height / 2 * b->row_time_s, 1, err, sizeof err);
     if (rc)
         return snprintf(r->why, sizeof r->why, "designed response: %s", err), rc;
     c->cfg.design = &c->design;
     rc = p->levels_choice == STUDY_LEVELS_SELECT ? acquire_select(s, p, &src, c, err, sizeof err)
-                                                       : acquire_log(s, p, &src, c, err, sizeof err);
+                                                 : acquire_log(s, p, &src, c, err, sizeof err);
     if (rc)
         return snprintf(r->why, sizeof r->why, "acquisition: %s", err), rc;
     double t0 = cpu_s();
@@ -273,7 +276,10 @@ static int images_at(study_chip *chip, const study_point *p, double x, int k, ju
     return rc;
 }
 
-static double sd(double s1, double s2, long n) { return n > 1 ? sqrt(fmax(0, (s2 - s1 * s1 / n) / (n - 1))) : 0; }
+static double sd(double s1, double s2, long n)
+{
+    return n > 1 ? sqrt(fmax(0, (s2 - s1 * s1 / n) / (n - 1))) : 0;
+}
 
 /* The temporal part, study-specific: the simulator can show the same chip without temporal
  * noise, so the part is measured directly, 100 * sd of ln(x_tot / x_fpn), rather than inferred
@@ -305,8 +311,7 @@ static double median(const double *v, int n)
 }
 
 /* Every figure at one current x. */
-static int judge_at(const study *s, const study_point *p, study_chip *chip, calib *c, judge *j, int k,
-                    study_result *r)
+static int judge_at(const study *s, const study_point *p, study_chip *chip, calib *c, judge *j, int k, study_result *r)
 {
     double x = s->range_lo * pow(s->range_hi / s->range_lo, (k + 0.37) / N_EVAL), fl, fa;
     const wdr_nominal *nom = &c->res.nominal;

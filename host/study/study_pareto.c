@@ -6,18 +6,33 @@
 
 static const char *const acc_names[] = {"worst_total_pct", "worst_fpn_pct", "floor_pct", "display_levels"};
 static const char *const acc_units[] = {"%", "%", "%", "8-bit levels"};
-static const char *const cost_names[] = {"image_time_s", "calibration_time_s", "table_bytes_per_pixel",
+static const char *const cost_names[] = {"image_time_s",        "calibration_time_s",   "table_bytes_per_pixel",
                                          "table_bandwidth_Bps", "correct_ns_per_pixel", "fit_s_per_megapixel"};
 static const char *const cost_units[] = {"s", "s", "B/pixel", "B/s", "ns/pixel", "s/Mpixel"};
 /* frame, calibration and bandwidth follow from the board; table bytes from the format (the
  * half-precision sizes modelled); the correction kernel and the fit are timed here */
 static const int cost_measured[] = {0, 0, 0, 0, 1, 1};
 
-const char *study_acc_name(int a) { return acc_names[a]; }
-const char *study_acc_unit(int a) { return acc_units[a]; }
-const char *study_cost_name(int c) { return cost_names[c]; }
-const char *study_cost_unit(int c) { return cost_units[c]; }
-int study_cost_measured(int c) { return cost_measured[c]; }
+const char *study_acc_name(int a)
+{
+    return acc_names[a];
+}
+const char *study_acc_unit(int a)
+{
+    return acc_units[a];
+}
+const char *study_cost_name(int c)
+{
+    return cost_names[c];
+}
+const char *study_cost_unit(int c)
+{
+    return cost_units[c];
+}
+int study_cost_measured(int c)
+{
+    return cost_measured[c];
+}
 
 double study_acc_value(const study_result *r, int a)
 {

@@ -17,7 +17,10 @@ static const char *model_name(int m)
     return m >= 0 && m < WDR_MODEL_COUNT ? names[m] : "?";
 }
 
-static const char *form_name(int f) { return f == WDR_FORM_MOEBIUS ? "moebius" : f == WDR_FORM_BASIS ? "basis" : "poly"; }
+static const char *form_name(int f)
+{
+    return f == WDR_FORM_MOEBIUS ? "moebius" : f == WDR_FORM_BASIS ? "basis" : "poly";
+}
 
 static int point_coeffs(const study_point *p)
 {
@@ -44,7 +47,10 @@ void study_point_label(const study_point *p, char *out, int outlen)
         snprintf(ranges, sizeof ranges, "dac%g:%g", p->dac_lo_v, p->dac_hi_v);
     snprintf(out, (size_t)outlen, "adc%d dac%d %s %s %s %s/%s%d%s L%d%s M%d F%d %dx%d%s%s", p->adc_bits, p->dac_bits,
              ranges, timing, p->op, model_name(p->model), form_name(p->form), point_coeffs(p),
-             p->coeff_bits < 32 ? "h" : "", p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_COMPLEX4 ? 4 : p->n_levels,
+             p->coeff_bits < 32 ? "h" : "",
+             p->model == WDR_MODEL_SIMPLE3    ? 3
+             : p->model == WDR_MODEL_COMPLEX4 ? 4
+                                              : p->n_levels,
              p->levels_choice == STUDY_LEVELS_SELECT ? "sel" : "", p->frames_cal, p->frames_img, p->width, p->height,
              p->op_params[0] ? " " : "", p->op_params);
 }
@@ -54,8 +60,7 @@ void study_point_label(const study_point *p, char *out, int outlen)
 static void print_header(void)
 {
     printf("%4s  %-52s %7s %7s %7s %7s %7s %6s %6s %6s %8s %8s %5s %7s %6s %6s\n", "#", "design", "worst%", "med%",
-           "fpn%", "temp%", "floor%", "disp", "off1%", "flag%", "img_ms", "cal_s", "B/px", "tab_KiB", "ns/px",
-           "fit_s");
+           "fpn%", "temp%", "floor%", "disp", "off1%", "flag%", "img_ms", "cal_s", "B/px", "tab_KiB", "ns/px", "fit_s");
 }
 
 static void print_row(const study *s, int i)
@@ -116,15 +121,18 @@ static void knob_value(const study_point *p, int k, char *out, size_t cap)
     case 5: snprintf(out, cap, "%s%d", form_name(p->form), point_coeffs(p)); break;
     case 6: snprintf(out, cap, "%d", p->frames_cal); break;
     case 7: snprintf(out, cap, "%d", p->frames_img); break;
-    case 8: snprintf(out, cap, "%d", p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_COMPLEX4 ? 4 : p->n_levels); break;
+    case 8:
+        snprintf(out, cap, "%d", p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_COMPLEX4 ? 4 : p->n_levels);
+        break;
     case 9: snprintf(out, cap, "%d", p->coeff_bits); break;
     default: snprintf(out, cap, "%.31s %.30s", p->op, p->op_params); break;
     }
 }
 
 #define N_KNOBS 11
-static const char *const knob_names[N_KNOBS] = {"adc-bits", "dac-bits", "converter-ranges", "timing", "model", "form",
-                                                "frames", "image-frames", "levels", "coeff-bits", "operator"};
+static const char *const knob_names[N_KNOBS] = {"adc-bits", "dac-bits",   "converter-ranges", "timing",
+                                                "model",    "form",       "frames",           "image-frames",
+                                                "levels",   "coeff-bits", "operator"};
 
 /* For every knob with more than one value: the best worst-total error reached at each value. */
 static void print_knob_table(const study *s, int a)
@@ -192,7 +200,8 @@ static void print_edge_knob(const study *s, int a)
     }
     if (best_k >= 0)
         printf("  limiting knob: %s: still improving at its largest value (best %.3g at %g, %.3g at %g): more of it "
-               "may help\n", knob_names[best_k], prev_f, prev_v, last_f, last_v);
+               "may help\n",
+               knob_names[best_k], prev_f, prev_v, last_f, last_v);
     else
         printf("  limiting knob: none swept still improves by 10 %% at its largest value: the model and table form "
                "set the limit here\n");
@@ -217,11 +226,13 @@ static void print_limit(const study *s, int a, double target)
     char label[256];
     study_point_label(p, label, sizeof label);
     printf("  none does; the most accurate is #%d %s at %.3g %% (total %.3g %%, FPN alone %.3g %%, temporal %.3g %%, "
-           "quantisation floor %.3g %%, of which the ADC %.3g %%)\n", b, label, study_acc_value(r, a),
-           r->worst_total_pct, r->worst_fpn_pct, r->worst_temporal_pct, r->floor_pct, r->floor_adc_pct);
+           "quantisation floor %.3g %%, of which the ADC %.3g %%)\n",
+           b, label, study_acc_value(r, a), r->worst_total_pct, r->worst_fpn_pct, r->worst_temporal_pct, r->floor_pct,
+           r->floor_adc_pct);
     if (a == STUDY_ACC_TOTAL && r->worst_temporal_pct > target)
         printf("  limiting knob: image-frames (%d): the image's temporal noise alone is %.3g %%, and it falls only "
-               "as 1/sqrt(frames)\n", p->frames_img, r->worst_temporal_pct);
+               "as 1/sqrt(frames)\n",
+               p->frames_img, r->worst_temporal_pct);
     print_edge_knob(s, a); /* averaging also dithers the converters: the knob that still pays, too */
 }
 
@@ -346,7 +357,8 @@ static cJSON *costs_json(void)
 {
     cJSON *c = cJSON_CreateObject();
     for (int q = 0; q < STUDY_COST_COUNT; q++)
-        cJSON_AddStringToObject(c, study_cost_name(q), study_cost_measured(q) ? "measured here" : "modelled from the board");
+        cJSON_AddStringToObject(c, study_cost_name(q),
+                                study_cost_measured(q) ? "measured here" : "modelled from the board");
     cJSON_AddStringToObject(c, "m7_instructions_per_pixel", "not available: no Cortex-M7 bench in this tree");
     return c;
 }
@@ -416,7 +428,9 @@ static int write_data(const study *s, int c, const char *dir, char *all, char *f
         int m = study_front(s, a == 0 ? STUDY_ACC_TOTAL : a == 1 ? STUDY_ACC_FPN : STUDY_ACC_FLOOR, c, idx);
         for (int k = 0; k < m; k++)
             fprintf(ff, "%g %g\n", study_cost_value(&s->res[idx[k]], c),
-                    study_acc_value(&s->res[idx[k]], a == 0 ? STUDY_ACC_TOTAL : a == 1 ? STUDY_ACC_FPN : STUDY_ACC_FLOOR));
+                    study_acc_value(&s->res[idx[k]], a == 0   ? STUDY_ACC_TOTAL
+                                                     : a == 1 ? STUDY_ACC_FPN
+                                                              : STUDY_ACC_FLOOR));
         fprintf(ff, "\n\n");
     }
     free(idx);
@@ -433,21 +447,22 @@ static int plot_one(const study *s, int c, const char *file, const char *xlabel,
     char all[1024], front[1024], script[8192], err[512];
     if (!write_data(s, c, dir, all, front, sizeof all))
         return study_fail(EX_CANTCREAT, "%s: cannot write plot data", dir);
-    int len = snprintf(script, sizeof script,
-             "set terminal pngcairo size 1000,640\nset output '%s/%s'\nset logscale xy\nset grid\nset key outside\n"
-             "set xlabel '%s'\nset ylabel 'worst contrast error over %.3g..%.3g A (%%)'\n"
-             "set title 'What accuracy costs: %s (%d points, %s)'\n"
-             "plot '%s' u ($1*%g):2 w p pt 7 ps 0.6 lc rgb '#b0b0b0' t 'every point (total)', "
-             "'%s' u ($1*%g):4 w p pt 6 ps 0.6 lc rgb '#a0c0f0' t 'every point (FPN alone)', "
-             "'%s' index 0 u ($1*%g):2 w steps lw 2 lc rgb '#c00000' t 'front: total (FPN + temporal)', "
-             "'%s' index 0 u ($1*%g):2 w p pt 7 ps 1 lc rgb '#c00000' notitle, "
-             "'%s' index 1 u ($1*%g):2 w steps lw 1.5 dt 2 lc rgb '#0050c0' t 'front: FPN alone', "
-             "'%s' index 1 u ($1*%g):2 w p pt 5 ps 0.8 lc rgb '#0050c0' notitle, "
-             "'%s' index 2 u ($1*%g):2 w steps lw 1.5 dt 3 lc rgb '#208020' t 'front: quantisation floor', "
-             "'%s' index 2 u ($1*%g):2 w p pt 9 ps 0.8 lc rgb '#208020' notitle",
-             outdir, file, xlabel, s->range_lo, s->range_hi, s->pts[0].op, s->n,
-             study_cost_measured(c) ? "measured here" : "modelled from the board", all, xscale, all, xscale, front,
-             xscale, front, xscale, front, xscale, front, xscale, front, xscale, front, xscale);
+    int len =
+        snprintf(script, sizeof script,
+                 "set terminal pngcairo size 1000,640\nset output '%s/%s'\nset logscale xy\nset grid\nset key outside\n"
+                 "set xlabel '%s'\nset ylabel 'worst contrast error over %.3g..%.3g A (%%)'\n"
+                 "set title 'What accuracy costs: %s (%d points, %s)'\n"
+                 "plot '%s' u ($1*%g):2 w p pt 7 ps 0.6 lc rgb '#b0b0b0' t 'every point (total)', "
+                 "'%s' u ($1*%g):4 w p pt 6 ps 0.6 lc rgb '#a0c0f0' t 'every point (FPN alone)', "
+                 "'%s' index 0 u ($1*%g):2 w steps lw 2 lc rgb '#c00000' t 'front: total (FPN + temporal)', "
+                 "'%s' index 0 u ($1*%g):2 w p pt 7 ps 1 lc rgb '#c00000' notitle, "
+                 "'%s' index 1 u ($1*%g):2 w steps lw 1.5 dt 2 lc rgb '#0050c0' t 'front: FPN alone', "
+                 "'%s' index 1 u ($1*%g):2 w p pt 5 ps 0.8 lc rgb '#0050c0' notitle, "
+                 "'%s' index 2 u ($1*%g):2 w steps lw 1.5 dt 3 lc rgb '#208020' t 'front: quantisation floor', "
+                 "'%s' index 2 u ($1*%g):2 w p pt 9 ps 0.8 lc rgb '#208020' notitle",
+                 outdir, file, xlabel, s->range_lo, s->range_hi, s->pts[0].op, s->n,
+                 study_cost_measured(c) ? "measured here" : "modelled from the board", all, xscale, all, xscale, front,
+                 xscale, front, xscale, front, xscale, front, xscale, front, xscale, front, xscale);
     for (int t = 0; t < n_targets && len < (int)sizeof script - 64; t++)
         len += snprintf(script + len, sizeof script - (size_t)len, ", %g w l lc rgb 'black' dt 4 t 'target %.3g %%'",
                         targets[t], targets[t]);
@@ -461,8 +476,9 @@ int study_plot(const study *s, const char *outdir, const double *targets, int n_
     char dir[1024];
     if (wdr_plot_tmpdir(dir, sizeof dir))
         return study_fail(EX_CANTCREAT, "no temporary directory for plot data");
-    int rc = plot_one(s, STUDY_COST_FRAME, "study_vs_image_time.png", "time per image (ms; modelled: image frames x (reset + ramp + readout))",
-                      1e3, outdir, dir, targets, n_targets);
+    int rc = plot_one(s, STUDY_COST_FRAME, "study_vs_image_time.png",
+                      "time per image (ms; modelled: image frames x (reset + ramp + readout))", 1e3, outdir, dir,
+                      targets, n_targets);
     if (rc == EX_OK)
         rc = plot_one(s, STUDY_COST_CAL, "study_vs_cal_time.png",
                       "calibration time on the board (s; modelled: (levels + dark) x frames x frame time)", 1, outdir,

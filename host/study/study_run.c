@@ -97,7 +97,8 @@ static int collect(study *s, struct pollfd *fds, int jobs, double t0, int show)
             close(fds[w].fd), fds[w].fd = -1, open--;
         }
     }
-    return done == s->n ? EX_OK : study_fail(EX_SOFTWARE, "only %d of %d points came back from the workers", done, s->n);
+    return done == s->n ? EX_OK
+                        : study_fail(EX_SOFTWARE, "only %d of %d points came back from the workers", done, s->n);
 }
 
 int study_run(study *s, int show_progress, double *wall_s)

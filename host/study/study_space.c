@@ -56,8 +56,10 @@ static int int_list(const char *knob, const char *text, int lo, int hi, int *v, 
                 mul = e[1] == '*' ? '*' : 0, step = strtol(e + 1 + (mul != 0), &e, 10);
         }
         if (e == items[i] || *e || a < lo || b > hi || a > b || step < 1 + (mul != 0))
-            return study_fail(EX_USAGE, "--%s: '%s' is not a whole number, or a range A:B[:STEP|:*FACTOR], "
-                                        "in %d..%d", knob, items[i], lo, hi);
+            return study_fail(EX_USAGE,
+                              "--%s: '%s' is not a whole number, or a range A:B[:STEP|:*FACTOR], "
+                              "in %d..%d",
+                              knob, items[i], lo, hi);
         for (long x = a; x <= b && *n < MAX_VALUES; x = mul ? x * step : x + step)
             v[(*n)++] = (int)x;
     }
@@ -95,8 +97,8 @@ static int range_list(const char *knob, const char *text, double *lo, double *hi
 }
 
 /* Names from a fixed set: v gets the ids. */
-static int name_list(const char *knob, const char *text, const char *const *names, const int *ids, int n_names,
-                     int *v, int *n)
+static int name_list(const char *knob, const char *text, const char *const *names, const int *ids, int n_names, int *v,
+                     int *n)
 {
     char buf[1024], *items[MAX_VALUES], known[256] = "";
     int m = split(text, buf, sizeof buf, items);
@@ -175,13 +177,30 @@ int study_knobs_from_file(const char *path, study_knobs *k, void **keep)
     cJSON *j = cJSON_Parse(text);
     if (!cJSON_IsObject(j))
         return cJSON_Delete(j), study_fail(EX_DATAERR, "%s: not a JSON object", path);
-    static const struct { const char *key; size_t off; } keys[] = {
+    static const struct {
+        const char *key;
+        size_t off;
+    } keys[] = {
 #define K(name, field) {name, offsetof(study_knobs, field)}
-        K("adc-bits", adc_bits), K("adc-range", adc_range), K("dac-bits", dac_bits), K("dac-range", dac_range),
-        K("converter-ranges", ranges), K("timing", timing), K("entries", entries), K("dac-timer-hz", timer_hz),
-        K("operator", op), K("param", params), K("model", model), K("form", form), K("coeffs", coeffs),
-        K("coeff-bits", coeff_bits), K("levels", levels), K("levels-choice", levels_choice), K("frames", frames),
-        K("image-frames", image_frames), K("size", size)};
+        K("adc-bits", adc_bits),
+        K("adc-range", adc_range),
+        K("dac-bits", dac_bits),
+        K("dac-range", dac_range),
+        K("converter-ranges", ranges),
+        K("timing", timing),
+        K("entries", entries),
+        K("dac-timer-hz", timer_hz),
+        K("operator", op),
+        K("param", params),
+        K("model", model),
+        K("form", form),
+        K("coeffs", coeffs),
+        K("coeff-bits", coeff_bits),
+        K("levels", levels),
+        K("levels-choice", levels_choice),
+        K("frames", frames),
+        K("image-frames", image_frames),
+        K("size", size)};
 #undef K
     cJSON *store = cJSON_CreateArray(), *holder = cJSON_CreateArray();
     cJSON_AddItemToArray(holder, j), cJSON_AddItemToArray(holder, store);
@@ -190,8 +209,8 @@ int study_knobs_from_file(const char *path, study_knobs *k, void **keep)
         while (i < sizeof keys / sizeof keys[0] && strcmp(it->string, keys[i].key))
             i++;
         if (i == sizeof keys / sizeof keys[0]) {
-            study_fail(EX_DATAERR, "%s: unknown field '%s' (fields are the long options: adc-bits, frames, ...)",
-                       path, it->string);
+            study_fail(EX_DATAERR, "%s: unknown field '%s' (fields are the long options: adc-bits, frames, ...)", path,
+                       it->string);
             return cJSON_Delete(holder), EX_DATAERR;
         }
         /* a list is written as the command line's comma list */
@@ -216,12 +235,35 @@ int study_knobs_from_file(const char *path, study_knobs *k, void **keep)
     return EX_OK;
 }
 
-void study_knobs_free_file(void *keep) { cJSON_Delete(keep); }
+void study_knobs_free_file(void *keep)
+{
+    cJSON_Delete(keep);
+}
 
 /* ---- expansion ---- */
 
-enum { D_ADC, D_ADCR, D_DAC, D_DACR, D_FIT, D_TIM, D_ENT, D_HZ, D_OP, D_PAR, D_MOD, D_FORM, D_NC, D_CB, D_LEV,
-       D_CH, D_FR, D_IMG, D_SIZE, D_COUNT };
+enum {
+    D_ADC,
+    D_ADCR,
+    D_DAC,
+    D_DACR,
+    D_FIT,
+    D_TIM,
+    D_ENT,
+    D_HZ,
+    D_OP,
+    D_PAR,
+    D_MOD,
+    D_FORM,
+    D_NC,
+    D_CB,
+    D_LEV,
+    D_CH,
+    D_FR,
+    D_IMG,
+    D_SIZE,
+    D_COUNT
+};
 
 typedef struct space {
     int n[D_COUNT];
@@ -243,7 +285,8 @@ static int parse_names(const study_knobs *k, space *sp)
                      forms_id[] = {-1, WDR_FORM_MOEBIUS, WDR_FORM_POLY, WDR_FORM_BASIS},
                      choice_id[] = {STUDY_LEVELS_LOG, STUDY_LEVELS_SELECT};
     int rc;
-    if ((rc = name_list("converter-ranges", k->ranges ? k->ranges : "full", ranges, ranges_id, 2, sp->fit, &sp->n[D_FIT])) ||
+    if ((rc = name_list("converter-ranges", k->ranges ? k->ranges : "full", ranges, ranges_id, 2, sp->fit,
+                        &sp->n[D_FIT])) ||
         (rc = name_list("timing", k->timing ? k->timing : "stamped", timing, timing_id, 2, sp->tim, &sp->n[D_TIM])) ||
         (rc = name_list("model", k->model ? k->model : "spline", models, models_id, 5, sp->mod, &sp->n[D_MOD])) ||
         (rc = name_list("form", k->form ? k->form : "auto", forms, forms_id, 4, sp->form, &sp->n[D_FORM])) ||
@@ -299,7 +342,8 @@ static int knob_acts(const study_point *p, int d)
 {
     int paper = p->model == WDR_MODEL_SIMPLE3 || p->model == WDR_MODEL_COMPLEX4;
     switch (d) {
-    case D_ADCR: case D_DACR: return !p->fit_ranges;
+    case D_ADCR:
+    case D_DACR: return !p->fit_ranges;
     case D_ENT: return p->timing == WDR_TIMING_UNIFORM;
     case D_HZ: return p->timing == WDR_TIMING_STAMPED;
     case D_NC: return p->form != WDR_FORM_MOEBIUS;
@@ -318,7 +362,10 @@ static int form_valid(const study_point *p)
     return p->n_coeffs == 0 || p->n_coeffs >= 2;
 }
 
-static int same_double(double a, double b) { return a == b || (isnan(a) && isnan(b)); }
+static int same_double(double a, double b)
+{
+    return a == b || (isnan(a) && isnan(b));
+}
 
 static int same_point(const study_point *a, const study_point *b)
 {
@@ -334,19 +381,32 @@ static int same_point(const study_point *a, const study_point *b)
 
 static void fill_point(const space *sp, const int *i, study_point *p)
 {
-    *p = (study_point){.adc_bits = sp->adc[i[D_ADC]], .adc_lo_v = sp->adc_lo[i[D_ADCR]], .adc_hi_v = sp->adc_hi[i[D_ADCR]],
-                       .dac_bits = sp->dac[i[D_DAC]], .dac_lo_v = sp->dac_lo[i[D_DACR]], .dac_hi_v = sp->dac_hi[i[D_DACR]],
-                       .fit_ranges = sp->fit[i[D_FIT]], .timing = sp->tim[i[D_TIM]],
-                       .uniform_entries = (uint32_t)sp->ent[i[D_ENT]], .dac_timer_hz = sp->hz[i[D_HZ]],
-                       .model = sp->mod[i[D_MOD]], .n_coeffs = sp->nc[i[D_NC]], .coeff_bits = sp->cb[i[D_CB]],
-                       .n_levels = sp->lev[i[D_LEV]], .levels_choice = sp->ch[i[D_CH]], .frames_cal = sp->fr[i[D_FR]],
-                       .frames_img = sp->img[i[D_IMG]], .width = sp->w[i[D_SIZE]], .height = sp->h[i[D_SIZE]]};
+    *p = (study_point){.adc_bits = sp->adc[i[D_ADC]],
+                       .adc_lo_v = sp->adc_lo[i[D_ADCR]],
+                       .adc_hi_v = sp->adc_hi[i[D_ADCR]],
+                       .dac_bits = sp->dac[i[D_DAC]],
+                       .dac_lo_v = sp->dac_lo[i[D_DACR]],
+                       .dac_hi_v = sp->dac_hi[i[D_DACR]],
+                       .fit_ranges = sp->fit[i[D_FIT]],
+                       .timing = sp->tim[i[D_TIM]],
+                       .uniform_entries = (uint32_t)sp->ent[i[D_ENT]],
+                       .dac_timer_hz = sp->hz[i[D_HZ]],
+                       .model = sp->mod[i[D_MOD]],
+                       .n_coeffs = sp->nc[i[D_NC]],
+                       .coeff_bits = sp->cb[i[D_CB]],
+                       .n_levels = sp->lev[i[D_LEV]],
+                       .levels_choice = sp->ch[i[D_CH]],
+                       .frames_cal = sp->fr[i[D_FR]],
+                       .frames_img = sp->img[i[D_IMG]],
+                       .width = sp->w[i[D_SIZE]],
+                       .height = sp->h[i[D_SIZE]]};
     snprintf(p->op, sizeof p->op, "%s", sp->op_names[i[D_OP]]);
     snprintf(p->op_params, sizeof p->op_params, "%s", sp->params[i[D_PAR]]);
     int f = sp->form[i[D_FORM]];
-    p->form = f >= 0 ? f : p->model == WDR_MODEL_SIMPLE3 ? WDR_FORM_MOEBIUS
-                         : p->model == WDR_MODEL_SPLINE  ? WDR_FORM_BASIS
-                                                         : WDR_FORM_POLY;
+    p->form = f >= 0                          ? f
+              : p->model == WDR_MODEL_SIMPLE3 ? WDR_FORM_MOEBIUS
+              : p->model == WDR_MODEL_SPLINE  ? WDR_FORM_BASIS
+                                              : WDR_FORM_POLY;
 }
 
 int study_expand(const study_knobs *k, study *s, int *skipped)

@@ -72,7 +72,11 @@ static int set_option(int c, const char *a, study_opts *o)
     case 'r': return parse_range(a, &o->lo, &o->hi);
     case 't': return parse_targets(a, o);
     case 'R': return parse_number("--fps", a, 1e-3, 1e5, &o->fps);
-    case 'J': { int rc = parse_number("--jobs", a, 1, 64, &v); o->jobs = (int)v; return rc; }
+    case 'J': {
+        int rc = parse_number("--jobs", a, 1, 64, &v);
+        o->jobs = (int)v;
+        return rc;
+    }
     case 's': o->seed = strtoul(a, NULL, 0); return EX_OK;
     case 1: k->adc_bits = a; return EX_OK;
     case 2: k->adc_range = a; return EX_OK;
@@ -97,28 +101,42 @@ static int set_option(int c, const char *a, study_opts *o)
     }
 }
 
-static const struct option longopts[] = {
-    {"board", required_argument, NULL, 'b'},       {"study", required_argument, NULL, 'f'},
-    {"outdir", required_argument, NULL, 'O'},      {"json", no_argument, NULL, 'j'},
-    {"no-plots", no_argument, NULL, 'N'},          {"range", required_argument, NULL, 'r'},
-    {"target", required_argument, NULL, 't'},      {"fps", required_argument, NULL, 'R'},
-    {"jobs", required_argument, NULL, 'J'},        {"seed", required_argument, NULL, 's'},
-    {"adc-bits", required_argument, NULL, 1},      {"adc-range", required_argument, NULL, 2},
-    {"dac-bits", required_argument, NULL, 3},      {"dac-range", required_argument, NULL, 4},
-    {"converter-ranges", required_argument, NULL, 5}, {"timing", required_argument, NULL, 6},
-    {"entries", required_argument, NULL, 7},       {"dac-timer-hz", required_argument, NULL, 8},
-    {"operator", required_argument, NULL, 9},      {"param", required_argument, NULL, 10},
-    {"model", required_argument, NULL, 11},        {"form", required_argument, NULL, 12},
-    {"coeffs", required_argument, NULL, 13},       {"coeff-bits", required_argument, NULL, 14},
-    {"levels", required_argument, NULL, 15},       {"levels-choice", required_argument, NULL, 16},
-    {"frames", required_argument, NULL, 17},       {"image-frames", required_argument, NULL, 18},
-    {"size", required_argument, NULL, 19},         {NULL, 0, NULL, 0}};
+static const struct option longopts[] = {{"board", required_argument, NULL, 'b'},
+                                         {"study", required_argument, NULL, 'f'},
+                                         {"outdir", required_argument, NULL, 'O'},
+                                         {"json", no_argument, NULL, 'j'},
+                                         {"no-plots", no_argument, NULL, 'N'},
+                                         {"range", required_argument, NULL, 'r'},
+                                         {"target", required_argument, NULL, 't'},
+                                         {"fps", required_argument, NULL, 'R'},
+                                         {"jobs", required_argument, NULL, 'J'},
+                                         {"seed", required_argument, NULL, 's'},
+                                         {"adc-bits", required_argument, NULL, 1},
+                                         {"adc-range", required_argument, NULL, 2},
+                                         {"dac-bits", required_argument, NULL, 3},
+                                         {"dac-range", required_argument, NULL, 4},
+                                         {"converter-ranges", required_argument, NULL, 5},
+                                         {"timing", required_argument, NULL, 6},
+                                         {"entries", required_argument, NULL, 7},
+                                         {"dac-timer-hz", required_argument, NULL, 8},
+                                         {"operator", required_argument, NULL, 9},
+                                         {"param", required_argument, NULL, 10},
+                                         {"model", required_argument, NULL, 11},
+                                         {"form", required_argument, NULL, 12},
+                                         {"coeffs", required_argument, NULL, 13},
+                                         {"coeff-bits", required_argument, NULL, 14},
+                                         {"levels", required_argument, NULL, 15},
+                                         {"levels-choice", required_argument, NULL, 16},
+                                         {"frames", required_argument, NULL, 17},
+                                         {"image-frames", required_argument, NULL, 18},
+                                         {"size", required_argument, NULL, 19},
+                                         {NULL, 0, NULL, 0}};
 
 /* The study file first, so the command line's lists override its fields. */
 static int parse_options(int argc, char **argv, study_opts *o, void **keep)
 {
-    *o = (study_opts){.board = "sim-vga", .outdir = "study", .lo = 1e-14, .hi = 1e-8, .fps = 30, .jobs = 2,
-                      .plots = 1, .seed = 1};
+    *o = (study_opts){
+        .board = "sim-vga", .outdir = "study", .lo = 1e-14, .hi = 1e-8, .fps = 30, .jobs = 2, .plots = 1, .seed = 1};
     *keep = NULL;
     int c, rc;
     for (optind = 1; (c = getopt_long(argc, argv, "", longopts, NULL)) != -1;)

@@ -24,15 +24,24 @@ static void run_study(study_knobs *k, study *s)
             fail_msg("point %d failed: %s", i, s->res[i].why);
 }
 
-static void free_study(study *s) { free(s->pts), free(s->res); }
+static void free_study(study *s)
+{
+    free(s->pts), free(s->res);
+}
 
 static void more_adc_bits_never_raise_the_floor(void **state)
 {
     (void)state;
     study s;
     for (int fit = 0; fit < 2; fit++) {
-        study_knobs k = {.adc_bits = "10:16:2", .dac_bits = "16", .model = "spline", .form = "poly", .levels = "9", .frames = "1",
-                         .size = "32x24", .ranges = fit ? "fit" : "full"};
+        study_knobs k = {.adc_bits = "10:16:2",
+                         .dac_bits = "16",
+                         .model = "spline",
+                         .form = "poly",
+                         .levels = "9",
+                         .frames = "1",
+                         .size = "32x24",
+                         .ranges = fit ? "fit" : "full"};
         run_study(&k, &s);
         assert_int_equal(s.n, 4);
         for (int i = 1; i < s.n; i++) {
@@ -53,8 +62,14 @@ static void more_frames_never_raise_the_temporal_part(void **state)
 {
     (void)state;
     study s;
-    study_knobs k = {.adc_bits = "14", .dac_bits = "14", .model = "spline", .form = "poly", .levels = "9", .frames = "4",
-                     .image_frames = "1:16:*4", .size = "32x24"};
+    study_knobs k = {.adc_bits = "14",
+                     .dac_bits = "14",
+                     .model = "spline",
+                     .form = "poly",
+                     .levels = "9",
+                     .frames = "4",
+                     .image_frames = "1:16:*4",
+                     .size = "32x24"};
     run_study(&k, &s);
     assert_int_equal(s.n, 3);
     for (int i = 1; i < s.n; i++) {
@@ -74,7 +89,11 @@ static void fronts_are_cheapest_first_and_improving(void **state)
 {
     (void)state;
     study s;
-    study_knobs k = {.adc_bits = "10,12", .model = "simple3,spline", .form = "poly", .levels = "9", .frames = "1,4",
+    study_knobs k = {.adc_bits = "10,12",
+                     .model = "simple3,spline",
+                     .form = "poly",
+                     .levels = "9",
+                     .frames = "1,4",
                      .size = "32x24"};
     run_study(&k, &s);
     assert_int_equal(s.n, 8);
