@@ -27,7 +27,7 @@ extern const cli_command wdrctl_cmd_operators, wdrctl_cmd_lut_build, wdrctl_cmd_
 extern const cli_command wdrctl_cmd_devices, wdrctl_cmd_info, wdrctl_cmd_status, wdrctl_cmd_lut_upload,
     wdrctl_cmd_lut_select, wdrctl_cmd_cal_upload, wdrctl_cmd_integration, wdrctl_cmd_exposure, wdrctl_cmd_capture, wdrctl_cmd_stream,
     wdrctl_cmd_sim_illuminant;
-extern const cli_command wdrctl_cmd_calibrate, wdrctl_cmd_fpn_report;
+extern const cli_command wdrctl_cmd_calibrate, wdrctl_cmd_fpn_report, wdrctl_cmd_study;
 
 /* Commands, one per file group (cmd_*.c). */
 int cmd_operators(int argc, char **argv);
@@ -49,6 +49,9 @@ int cmd_sim_illuminant(int argc, char **argv);
 /* Calibration (cmd_calibrate.c, cmd_fpn_report.c). */
 int cmd_calibrate(int argc, char **argv);
 int cmd_fpn_report(int argc, char **argv);
+
+/* What accuracy costs (cmd_study.c over host/study/). */
+int cmd_study(int argc, char **argv);
 
 /* Scene statistics of an HDR image (wdr_lum_stats in operators.h); a sysexits code. The image
  * goes through the one pixel policy (wdr_hdr_sanitize): NaN/Inf refused, negatives clamped. */

@@ -2,12 +2,13 @@
  * contrast error it leaves (worst over 31 currents, 1e-14..1e-8 A, 100 sd of ln(x_hat/x) by
  * host/cal/cal_metrics.h as wdrctl fpn report, on the simulator with default mismatch, static
  * effects on, temporal noise off), analog (no DAC/ADC quantisation) and with the 12-bit converters
- * beside the model's floor; and for the N-current spline (analog), how the number of calibration
- * currents trades frames for accuracy. Prints tables; asserts nothing about speed. --quick uses a
- * small chip. */
+ * beside the model's floor; and for the N-current spline, how the number of calibration currents
+ * trades frames for accuracy, through the study engine (host/study, `wdrctl study`) with the
+ * converters and noise on. Prints tables; asserts nothing about speed. --quick uses a small chip. */
 #include "bench_util.h"
 #include "cal_design.h"
 #include "cal_select.h"
+#include "study.h"
 #include "wdr_err.h"
 #include <math.h>
 #include <stdio.h>
@@ -153,6 +154,32 @@ static int run(setup *timing, setup *acc, wdr_cal_config *cfg, const wdr_cal_cho
     return 0;
 }
 
+/* How the number of calibration currents trades frames for accuracy is a knob of the study
+ * (`wdrctl study --levels`): this section is a thin wrapper over it, so it is judged as the
+ * study judges, with the 12-bit converters and temporal noise on and 16 frames per level. */
+static int levels_through_study(int quick)
+{
+    study_knobs k = {.model = "spline", .form = "poly", .levels = quick ? "5,19" : "5,7,10,13,19,25", .frames = "16"};
+    study s = {.board = "sim-vga", .range_lo = 1e-14, .range_hi = 1e-8, .fps = 30, .seed = 1, .jobs = 2};
+    int skipped;
+    double wall;
+    if (study_expand(&k, &s, &skipped) || study_run(&s, 0, &wall))
+        return 1;
+    printf("\nNumber of calibration currents (spline, poly-5 table; wdrctl study --levels: 12-bit converters,\n"
+           "noise on, 16 frames per level, 64x48): frames to capture vs residual error\n");
+    printf("%8s %8s %12s %12s %12s %12s %12s\n", "currents", "frames", "board cal s", "fit s/MP", "FPN err%",
+           "total err%", "floor%");
+    for (int i = 0; i < s.n; i++) {
+        const study_result *r = &s.res[i];
+        if (!r->ok)
+            return fprintf(stderr, "bench_cal: study point %d: %s\n", i, r->why), 1;
+        printf("%8d %8d %12.3f %12.3f %12.4f %12.4f %12.4f\n", s.pts[i].n_levels, (s.pts[i].n_levels + 1) * 16,
+               r->cal_s, r->fit_s_per_mp, r->worst_fpn_pct, r->worst_total_pct, r->floor_pct);
+    }
+    free(s.pts), free(s.res);
+    return 0;
+}
+
 typedef struct model_row {
     const char *name;
     int model, form, n_coeffs, n_currents;
@@ -210,22 +237,8 @@ int main(int argc, char **argv)
                r.table_s_per_mp, r.worst_model, r.worst_table, r12.worst_table, ratio, r.bad);
     }
     close_chip(&acc12);
-    printf("\nNumber of calibration currents (spline model, analog: converters and temporal noise off):\n"
-           "frames to capture vs residual error\n");
-    printf("%8s %12s %12s %12s\n", "currents", "fit s/MP", "model err%", "poly-5 err%");
-    static const int counts[] = {5, 7, 10, 13, 19, 25};
-    for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++) {
-        wdr_cal_config cfg;
-        wdr_cal_choice ch;
-        result r;
-        wdr_cal_config_defaults(&cfg, WDR_MODEL_SPLINE);
-        cfg.form = WDR_FORM_POLY, cfg.n_coeffs = 5; /* the model's accuracy is what varies here */
-        cfg.range_lo = 1e-14, cfg.range_hi = 1e-8, cfg.tie_codes = 1e-3;
-        if (wdr_cal_select_currents(&acc.grid, &cfg, counts[i], 1e-14, 1e-8, 64, &ch, err, sizeof err) ||
-            run(&timing, &acc, &cfg, &ch, &r))
-            return 1;
-        printf("%8d %12.3f %12.4f %12.4f\n", counts[i], r.fit_s_per_mp, r.worst_model, r.worst_table);
-    }
+    if (levels_through_study(quick))
+        return 1;
     printf("\nEvery operator (spline, 19 currents over the operator's informative range, 64x48, analog):\n"
            "the default basis-8 table and a poly-5 table from the same fit\n");
     printf("%-18s %22s %12s %12s %12s %6s\n", "operator", "range (A)", "model err%", "basis-8 err%", "poly-5 err%",

@@ -8,7 +8,8 @@
 #   2 hal/<backend>/               one backend per folder; a backend never includes another
 #   3 host/lib/                    operators, ramps, tone maps, transports
 #   4 host/cal/                    calibration
-#   5 programs                     wdrctl, wdrsim, wdr-simboard, wdr-board, the firmware images
+#   5 host/study/                  the study of what accuracy costs (wdrctl study)
+#   6 programs                     wdrctl, wdrsim, wdr-simboard, wdr-board, the firmware images
 # Programs are files, not folders: they may include anything below them.
 set(layer_firmware 0)
 set(layer_hal 0)
@@ -19,8 +20,9 @@ set(layer_hal/template 2)
 set(layer_hal/mps2 2)
 set(layer_host/lib 3)
 set(layer_host/cal 4)
-set(layer_host/wdrctl 5)
-set(layer_host/wdrsim 5)
+set(layer_host/study 5)
+set(layer_host/wdrctl 6)
+set(layer_host/wdrsim 6)
 set(PROGRAMS hal/sim/wdr_simboard.c hal/sim/simboard_loop.c hal/sim/simboard_loop.h
     hal/linux/wdr_board_main.c firmware/main_arm.c hal/mps2/main_mps2.c)
 
@@ -60,7 +62,7 @@ foreach(f ${sources})
   get_filename_component(from_dir ${f} DIRECTORY)
   list(FIND PROGRAMS ${f} is_program)
   if(is_program GREATER -1)
-    set(from_layer 5)
+    set(from_layer 6)
     set(from_node "${from_dir} (programs)")
   else()
     layer_of(${f} from_layer)
