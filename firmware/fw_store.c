@@ -113,6 +113,22 @@ static int header_valid(const wdr_store *st, const uint8_t *p, int kind, int ind
 
 /* ---- Reading ------------------------------------------------------------------------------- */
 
+int wdr_store_read(const wdr_store *st, int kind, int slot, uint32_t off, void *buf, uint32_t n)
+{
+    const wdr_slot *s = &st->slot[kind - 1][slot];
+    if (off > s->capacity || n > s->capacity - off) /* subtraction, not off + n: no u32 wrap */
+        return WDR_E_INVAL;
+    return hal_flash_read(s->addr + WDR_SLOT_DATA_OFFSET + off, buf, n);
+}
+
+uint32_t wdr_store_length(const wdr_store *st, int kind, int slot)
+{
+    const wdr_slot *s = &st->slot[kind - 1][slot];
+    return s->valid ? s->length : 0;
+}
+
+void wdr_store_forget(wdr_store *st, int kind, int slot) { st->slot[kind - 1][slot].valid = 0; }
+
 int wdr_store_data_crc(wdr_store *st, const wdr_slot *s, uint32_t len, uint32_t *crc)
 {
     uint32_t c = 0;

@@ -17,21 +17,27 @@ static union {
     uint32_t compact[WDR_FW_CAL_CODES * 4u]; /* COMPACT: base and two int16 pairs per code, 16 bytes */
 } cal_code_points;
 
-static uint32_t data_addr(const wdr_fw *fw, int kind, int slot)
+/* A stored table: read through the store (fw_store.c), which alone knows the slots' layout. */
+typedef struct table_ref {
+    wdr_store *store;
+    int kind, slot;
+} table_ref;
+
+static int table_read(const table_ref *t, uint32_t off, void *buf, uint32_t n)
 {
-    return fw->store.slot[kind - 1][slot].addr + WDR_SLOT_DATA_OFFSET;
+    return wdr_store_read(t->store, t->kind, t->slot, off, buf, n);
 }
 
 static uint16_t adc_max(const wdr_fw *fw) { return (uint16_t)((1u << fw->board.adc_bits) - 1u); }
 
 /* ---- LUT: loaded whole into the staging RAM buffer ----------------------------------------- */
 
-static int lut_check(wdr_fw *fw, uint32_t addr, uint32_t len)
+static int lut_check(wdr_fw *fw, const table_ref *t, uint32_t len)
 {
     uint8_t *p = (uint8_t *)fw->lut_ram[fw->lut_buf ^ 1];
     if (len > WDR_FW_LUT_MAX_BYTES)
         return WDR_E_TOO_LARGE;
-    int err = hal_flash_read(addr, p, len);
+    int err = table_read(t, 0, p, len);
     if (err)
         return err;
     if (len >= 4 && wdr_get_u32(p) == WDR_CAL_MAGIC)
@@ -92,12 +98,12 @@ static int cal_row_check(const wdr_cal_view *rv, uint32_t *bad)
 
 /* The format's own header checks: wdr_cal_parse on the header alone stops at TRUNCATED
  * exactly when everything it can see (magic, CRC, version, fields) is right. */
-static int cal_header(wdr_fw *fw, uint32_t addr, uint32_t len, wdr_cal_view *v)
+static int cal_header(wdr_fw *fw, const table_ref *t, uint32_t len, wdr_cal_view *v)
 {
     uint8_t *p = (uint8_t *)fw->cal_row;
     if (len < WDR_CAL_HEADER_SIZE)
         return WDR_E_TRUNCATED;
-    int err = hal_flash_read(addr, p, WDR_CAL_HEADER_SIZE);
+    int err = table_read(t, 0, p, WDR_CAL_HEADER_SIZE);
     if (err)
         return err;
     if (wdr_get_u32(p) == WDR_LUT_MAGIC)
@@ -129,13 +135,14 @@ static int cal_geometry(const wdr_fw *fw, const wdr_cal_view *v)
 
 /* BASIS: the shared block into the staging buffer, checked once; the kernel then trusts it for
  * every row. *crc continues over it (the payload CRC covers the shared block, then the rows). */
-static int cal_shared_load(wdr_fw *fw, uint32_t addr, wdr_cal_view *v, uint32_t *crc, int *content)
+static int cal_shared_load(wdr_fw *fw, const table_ref *t, uint32_t off, wdr_cal_view *v, uint32_t *crc,
+                           int *content)
 {
     uint32_t bytes = wdr_cal_shared_bytes(&v->h);
     if (!bytes)
         return WDR_OK;
     float *buf = fw->cal_shared[fw->cal_shared_buf ^ 1];
-    int err = hal_flash_read(addr, buf, bytes);
+    int err = table_read(t, off, buf, bytes);
     if (err)
         return err;
     *crc = wdr_crc32(*crc, buf, bytes);
@@ -146,18 +153,18 @@ static int cal_shared_load(wdr_fw *fw, uint32_t addr, wdr_cal_view *v, uint32_t 
 
 /* Read the shared block and every row once: CRC of the payload, value checks, flag count. A CRC
  * mismatch wins over what the corrupted rows look like. */
-static int cal_rows_check(wdr_fw *fw, uint32_t addr, wdr_cal_view *v)
+static int cal_rows_check(wdr_fw *fw, const table_ref *t, uint32_t off, wdr_cal_view *v)
 {
     uint32_t crc = 0, bad = 0;
     int content = WDR_OK;
-    int err = cal_shared_load(fw, addr, v, &crc, &content);
+    int err = cal_shared_load(fw, t, off, v, &crc, &content);
     if (err)
         return err;
-    addr += wdr_cal_shared_bytes(&v->h);
+    off += wdr_cal_shared_bytes(&v->h);
     wdr_cal_view rv;
     row_view(fw, v, &rv);
     for (uint32_t r = 0; r < v->h.height; r++) {
-        int err = hal_flash_read(addr + r * v->row_stride, fw->cal_row, v->row_stride);
+        int err = table_read(t, off + r * v->row_stride, fw->cal_row, v->row_stride);
         if (err)
             return err;
         crc = wdr_crc32(crc, fw->cal_row, v->row_stride);
@@ -171,14 +178,14 @@ static int cal_rows_check(wdr_fw *fw, uint32_t addr, wdr_cal_view *v)
     return bad == v->h.bad_pixels ? WDR_OK : WDR_E_INVAL;
 }
 
-static int cal_check(wdr_fw *fw, uint32_t addr, uint32_t len)
+static int cal_check(wdr_fw *fw, const table_ref *t, uint32_t len)
 {
     wdr_cal_view *v = &fw->staged_cal;
-    int err = cal_header(fw, addr, len, v);
+    int err = cal_header(fw, t, len, v);
     if (!err)
         err = cal_geometry(fw, v);
     if (!err)
-        err = cal_rows_check(fw, addr + WDR_CAL_HEADER_SIZE, v);
+        err = cal_rows_check(fw, t, WDR_CAL_HEADER_SIZE, v);
     return err;
 }
 
@@ -186,8 +193,8 @@ static int cal_check(wdr_fw *fw, uint32_t addr, uint32_t len)
 
 int wdr_fw_table_check(wdr_fw *fw, int kind, int slot, uint32_t len)
 {
-    uint32_t addr = data_addr(fw, kind, slot);
-    return kind == WDR_KIND_LUT ? lut_check(fw, addr, len) : cal_check(fw, addr, len);
+    table_ref t = {&fw->store, kind, slot};
+    return kind == WDR_KIND_LUT ? lut_check(fw, &t, len) : cal_check(fw, &t, len);
 }
 
 /* Make the table that passed the last wdr_fw_table_check of this kind active. */
@@ -232,12 +239,11 @@ static void boot_kind(wdr_fw *fw, int kind)
         int slot = wdr_store_newest(&fw->store, kind, -1);
         if (slot < 0)
             return;
-        wdr_slot *s = &fw->store.slot[kind - 1][slot];
-        if (!wdr_fw_table_check(fw, kind, slot, s->length)) {
+        if (!wdr_fw_table_check(fw, kind, slot, wdr_store_length(&fw->store, kind, slot))) {
             wdr_fw_table_activate(fw, kind, slot);
             return;
         }
-        s->valid = 0;
+        wdr_store_forget(&fw->store, kind, slot);
     }
 }
 
@@ -262,7 +268,7 @@ int wdr_fw_load_cal_row(wdr_fw *fw, uint16_t row)
     if (fw->cal_slot < 0)
         return WDR_OK;
     const wdr_cal_view *v = &fw->cal;
-    uint32_t end = data_addr(fw, WDR_KIND_CAL, fw->cal_slot) + fw->store.slot[WDR_KIND_CAL - 1][fw->cal_slot].length;
-    uint32_t addr = end - (uint32_t)(v->h.height - row) * v->row_stride;
-    return hal_flash_read(addr, fw->cal_row, v->row_stride);
+    table_ref t = {&fw->store, WDR_KIND_CAL, fw->cal_slot};
+    uint32_t end = wdr_store_length(&fw->store, WDR_KIND_CAL, fw->cal_slot);
+    return table_read(&t, end - (uint32_t)(v->h.height - row) * v->row_stride, fw->cal_row, v->row_stride);
 }

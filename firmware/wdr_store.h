@@ -80,6 +80,17 @@ int wdr_store_seal(wdr_store *st);
 /* Forget the upload in progress (its slot stays invalid). */
 void wdr_store_abort(wdr_store *st);
 
+/* Read n bytes at offset off of the table data of a slot (what follows its header), within the
+ * slot's capacity: the table code names a slot, never its flash address.
+ * @retval WDR_OK  @retval WDR_E_INVAL outside the slot  @retval WDR_E_IO  @retval WDR_E_POWER */
+int wdr_store_read(const wdr_store *st, int kind, int slot, uint32_t off, void *buf, uint32_t n);
+
+/* Length of the table a valid slot holds (0: none). */
+uint32_t wdr_store_length(const wdr_store *st, int kind, int slot);
+
+/* A slot whose content failed the caller's checks: no longer a candidate for newest. */
+void wdr_store_forget(wdr_store *st, int kind, int slot);
+
 /* CRC-32 of len bytes of table data in a slot, read back from flash.
  * @retval WDR_OK  @retval WDR_E_IO  @retval WDR_E_POWER */
 int wdr_store_data_crc(wdr_store *st, const wdr_slot *s, uint32_t len, uint32_t *crc);

@@ -213,7 +213,7 @@ static void add_warning(wdr_scene *sc, const char *text)
 static int fit_image(scene_ctx *c, const cJSON *ill, const char *file, const float *img, int iw, int ih)
 {
     const char *name = get_string(ill, "fit");
-    int fit = name ? wdr_fit_from_name(name) : WDR_FIT_EXACT;
+    int fit = name ? wdr_fit_from_name(name) : WDR_FIT_CROP; /* aspect kept unless asked otherwise */
     if (cJSON_GetObjectItemCaseSensitive(ill, "fit") && (!name || fit < 0))
         return fail(c, WDR_E_INVAL, "illumination.fit",
                     "must be \"exact\", \"crop\" (or its old name \"resample\"), \"letterbox\" or \"stretch\"");

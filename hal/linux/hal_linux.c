@@ -4,6 +4,7 @@
  * Threads stand in for interrupts: they only post events (an eventfd wakes the task loop).
  * Ramp playback from user space has tens of microseconds of jitter: good for bring-up; a
  * product plays the LUT from a timer-driven DMA or an FPGA behind the same hal_ramp_start. */
+#include "hal_event_ring.h"
 #include "hal_linux_internal.h"
 #include <errno.h>
 #include <fcntl.h>
@@ -20,14 +21,12 @@
 #include <time.h>
 #include <unistd.h>
 
-#define EVQ_SIZE 64u
 #define N_LINES (3u + HAL_LINUX_ROW_ADDR_BITS)
 enum { LINE_RESET, LINE_ROW_SELECT, LINE_ADC_CONVERT, LINE_ROW_ADDR0 };
 
 static struct {
     pthread_mutex_t lock;
-    hal_event evq[EVQ_SIZE];
-    uint32_t head, tail;
+    hal_event_ring events; /* posts come from several threads: under lock */
     int wake_fd, timer_fd;
     uint64_t t0_ns;
     int dac_fd, adc_fd;
@@ -88,11 +87,7 @@ const char *lx_bringup_error(void) { return bringup_error; }
 void lx_post(uint8_t type, uint32_t arg)
 {
     pthread_mutex_lock(&L.lock);
-    uint32_t next = (L.head + 1u) & (EVQ_SIZE - 1u);
-    if (next != L.tail) {
-        L.evq[L.head] = (hal_event){.type = type, .arg = arg};
-        L.head = next;
-    }
+    hal_event_ring_post(&L.events, type, arg);
     pthread_mutex_unlock(&L.lock);
     uint64_t one = 1;
     if (write(L.wake_fd, &one, sizeof one) < 0) {
@@ -121,11 +116,7 @@ int hal_event_poll(hal_event *ev)
     if (poll(&p, 1, 0) > 0)
         take_timer();
     pthread_mutex_lock(&L.lock);
-    int got = L.head != L.tail;
-    if (got) {
-        *ev = L.evq[L.tail];
-        L.tail = (L.tail + 1u) & (EVQ_SIZE - 1u);
-    }
+    int got = hal_event_ring_take(&L.events, ev);
     pthread_mutex_unlock(&L.lock);
     return got;
 }

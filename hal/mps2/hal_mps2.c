@@ -4,6 +4,7 @@
  * static state, nothing else. Everything is polled; hal_event_poll turns what the registers show
  * into queued events, as interrupt handlers would. */
 #include "hal.h"
+#include "hal_event_ring.h"
 #include "board.h"
 #include "wdr_proto.h"
 #include <string.h>
@@ -44,19 +45,9 @@ static struct {
 
 /* ---- Event queue ----------------------------------------------------------------------- */
 
-#define EVQ_SIZE 16u
-static hal_event evq[EVQ_SIZE];
-static uint32_t evq_head, evq_tail;
+static hal_event_ring events;
 
-static void evq_post(uint8_t type, uint32_t arg)
-{
-    uint32_t next = (evq_head + 1u) & (EVQ_SIZE - 1u);
-    if (next == evq_tail)
-        return; /* every event is also visible as state, so a dropped one is seen again */
-    evq[evq_head].type = type;
-    evq[evq_head].arg = arg;
-    evq_head = next;
-}
+static void evq_post(uint8_t type, uint32_t arg) { hal_event_ring_post(&events, type, arg); }
 
 /* What interrupts would post: bytes waiting, a deadline passed, the ramp done. */
 static void poll_sources(void)
@@ -79,16 +70,12 @@ static void poll_sources(void)
 int hal_event_poll(hal_event *ev)
 {
     poll_sources();
-    if (evq_tail == evq_head)
-        return 0;
-    *ev = evq[evq_tail];
-    evq_tail = (evq_tail + 1u) & (EVQ_SIZE - 1u);
-    return 1;
+    return hal_event_ring_take(&events, ev);
 }
 
 void hal_wait_for_event(void)
 {
-    while (evq_tail == evq_head)
+    while (hal_event_ring_empty(&events))
         poll_sources();
 }
 

@@ -4,13 +4,13 @@
  * blocks on the USB socket in real time instead of spinning. */
 #include "hal_sim_internal.h"
 #include "wdr_sim.h"
+#include "hal_event_ring.h"
 #include <math.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#define EVQ_SIZE 64u     /* power of two */
 #define IDLE_POLL_MS 100 /* real-time slice of an idle wait; bounds the reaction to a stop */
 #define NEVER UINT64_MAX
 
@@ -22,8 +22,7 @@ static struct {
     uint64_t now_ns;
     uint64_t frames;
 
-    hal_event evq[EVQ_SIZE];
-    uint32_t evq_head, evq_tail;
+    hal_event_ring events;
 
     uint64_t timer_at;     /* NEVER when disarmed */
     uint64_t ramp_done_at; /* NEVER when no ramp plays */
@@ -44,11 +43,7 @@ int hal_sim_eof_fd = -1;
 
 void hal_sim_post(uint8_t type, uint32_t arg)
 {
-    uint32_t next = (B.evq_head + 1u) & (EVQ_SIZE - 1u);
-    if (next == B.evq_tail)
-        return;
-    B.evq[B.evq_head] = (hal_event){.type = type, .arg = arg};
-    B.evq_head = next;
+    hal_event_ring_post(&B.events, type, arg);
 }
 
 static uint64_t splitmix64(uint64_t x)
@@ -85,7 +80,7 @@ static void fire_due(void)
 
 static uint64_t next_scheduled(void) { return B.ramp_done_at < B.timer_at ? B.ramp_done_at : B.timer_at; }
 
-static int queue_empty(void) { return B.evq_head == B.evq_tail; }
+static int queue_empty(void) { return hal_event_ring_empty(&B.events); }
 
 int hal_event_poll(hal_event *ev)
 {
@@ -94,9 +89,7 @@ int hal_event_poll(hal_event *ev)
         hal_sim_usb_pump(0);
     if (queue_empty())
         return 0;
-    *ev = B.evq[B.evq_tail];
-    B.evq_tail = (B.evq_tail + 1u) & (EVQ_SIZE - 1u);
-    return 1;
+    return hal_event_ring_take(&B.events, ev);
 }
 
 /* Host I/O first (it happens "now"), then jump the clock to the next scheduled happening;
@@ -283,7 +276,7 @@ wdr_sim *hal_sim_sensor(void) { return B.sensor; }
 
 void hal_sim_reboot(void)
 {
-    B.evq_head = B.evq_tail = 0;
+    hal_event_ring_reset(&B.events);
     B.now_ns = 0;
     B.timer_at = B.ramp_done_at = NEVER;
     B.integration_end_ns = 0;

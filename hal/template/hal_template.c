@@ -2,34 +2,21 @@
  * uses it), answers every question honestly and drives nothing: replace each body with the
  * board's register work. The event queue below is the part a real port keeps. */
 #include "hal.h"
+#include "hal_event_ring.h"
 #include <string.h>
 
 /* ---- Event queue: interrupt handlers post, the task loop polls ------------------------ */
 
-#define EVQ_SIZE 16u /* power of two; at most EVQ_SIZE - 1 events wait */
 
-static hal_event evq[EVQ_SIZE];
-static volatile uint32_t evq_head, evq_tail;
+static hal_event_ring events;
 
 /* Called from interrupt context; an event that finds the queue full is dropped, which the
  * firmware survives because every event is also visible as state (FIFO level, flags). */
-static void evq_post(uint8_t type, uint32_t arg)
-{
-    uint32_t next = (evq_head + 1u) & (EVQ_SIZE - 1u);
-    if (next == evq_tail)
-        return;
-    evq[evq_head].type = type;
-    evq[evq_head].arg = arg;
-    evq_head = next;
-}
+static void evq_post(uint8_t type, uint32_t arg) { hal_event_ring_post(&events, type, arg); }
 
 int hal_event_poll(hal_event *ev)
 {
-    if (evq_tail == evq_head)
-        return 0;
-    *ev = evq[evq_tail];
-    evq_tail = (evq_tail + 1u) & (EVQ_SIZE - 1u);
-    return 1;
+    return hal_event_ring_take(&events, ev);
 }
 
 void hal_wait_for_event(void)
@@ -41,7 +28,7 @@ void hal_wait_for_event(void)
 
 int hal_init(void)
 {
-    evq_head = evq_tail = 0;
+    hal_event_ring_reset(&events);
     return WDR_OK;
 }
 

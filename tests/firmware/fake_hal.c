@@ -1,12 +1,12 @@
 /* The test board: every hal.h function over plain memory (see fake_hal.h). */
 #include "fake_hal.h"
 #include "hal.h"
+#include "hal_event_ring.h"
 #include "nor_emul.h"
 #include "wdr_proto.h"
 #include <assert.h>
 #include <string.h>
 
-#define EVQ_SIZE 64u
 #define FIFO_SIZE (1u << 21)
 
 typedef struct fifo {
@@ -19,8 +19,7 @@ static struct {
     uint8_t programmed[FB_BLOCK_SIZE * FB_BLOCK_COUNT / FB_PROG_SIZE];
     nor_emul nor;     /* the one NOR emulator (hal/sim/nor_emul.h) */
     uint64_t ops_at_boot; /* nor.ops at the last power-on: the test API counts from there */
-    hal_event evq[EVQ_SIZE];
-    unsigned ev_head, ev_tail;
+    hal_event_ring events;
     uint64_t now, timer_at, ramp_end;
     int timer_armed, ramp_playing, tx_busy, row, fail_row;
     uint64_t ramp_ticks;
@@ -37,7 +36,7 @@ void fb_power_cycle(void)
     nor_emul_cut_power_at(&fb.nor, 0, NOR_TEAR_NONE);
     nor_emul_fail_at(&fb.nor, 0);
     nor_emul_reboot(&fb.nor);
-    fb.ev_head = fb.ev_tail = 0;
+    hal_event_ring_reset(&fb.events);
     fb.now = fb.timer_at = fb.ramp_end = 0;
     fb.timer_armed = fb.ramp_playing = fb.tx_busy = 0;
     fb.row = fb.fail_row = -1;
@@ -99,11 +98,9 @@ size_t fb_host_read(uint8_t *buf, size_t cap) { return fifo_get(&fb.to_host, buf
 
 static void post(uint8_t type)
 {
-    unsigned next = (fb.ev_head + 1u) % EVQ_SIZE;
-    assert(next != fb.ev_tail);
-    fb.evq[fb.ev_head].type = type;
-    fb.evq[fb.ev_head].arg = 0;
-    fb.ev_head = next;
+    int posted = hal_event_ring_post(&fb.events, type, 0);
+    assert(posted); /* the tests never let events pile up: a full ring is a test bug */
+    (void)posted;
 }
 
 /* Post what is due at the current time. */
@@ -124,10 +121,8 @@ int hal_init(void) { return WDR_OK; }
 int hal_event_poll(hal_event *ev)
 {
     fire_due();
-    if (fb.ev_tail == fb.ev_head)
+    if (!hal_event_ring_take(&fb.events, ev))
         return 0;
-    *ev = fb.evq[fb.ev_tail];
-    fb.ev_tail = (fb.ev_tail + 1u) % EVQ_SIZE;
     if (ev->type == HAL_EV_USB_TX_DONE)
         fb.tx_busy = 0;
     return 1;

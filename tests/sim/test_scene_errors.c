@@ -20,7 +20,7 @@ static const bad_case cases[] = {
     {"{ \"illumination\": { \"image\": \"nope.exr\" } }", WDR_E_IO, "illumination.image", "nope.exr"},
     {"{ \"illumination\": { \"image\": \"nan.pfm\" } }", WDR_E_INVAL, "illumination.image", "nan"},
     {"{ \"illumination\": { \"image\": \"inf.pfm\" } }", WDR_E_INVAL, "illumination.image", "inf"},
-    {"{ \"illumination\": { \"image\": \"big.pfm\" } }", WDR_E_GEOMETRY, "illumination.image", "16x8"},
+    {"{ \"illumination\": { \"image\": \"big.pfm\", \"fit\": \"exact\" } }", WDR_E_GEOMETRY, "illumination.image", "16x8"},
     {"{ \"size\": [9, 4], \"illumination\": { \"pattern\": \"uniform\" } }", WDR_E_GEOMETRY, "size", "9"},
     {"{ \"size\": \"8x4\", \"illumination\": { \"pattern\": \"uniform\" } }", WDR_E_INVAL, "size", "[width, height]"},
     {"{ \"illumination\": { \"pattern\": \"uniform\" }, \"effects\": { \"bogus\": \"on\" } }", WDR_E_INVAL,
