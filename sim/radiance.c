@@ -175,7 +175,7 @@ int wdr_radiance_decode(const uint8_t *buf, size_t len, const char *path, float 
     if ((uint64_t)(r.end - r.p) < (uint64_t)*h * min_scanline_bytes(*w)) {
         char what[160];
         snprintf(what, sizeof what, "%d x %d pixels need at least %llu bytes, the file has %zu after its header", *w,
-                 *h, (unsigned long long)((uint64_t)*h * min_scanline_bytes(*w)), (size_t)(r.end - r.p));
+                 *h, (unsigned long long)*h * min_scanline_bytes(*w), (size_t)(r.end - r.p));
         return bad(&r, WDR_E_INVAL, "resolution", what);
     }
     if (!(*rgb = malloc((size_t)*w * (size_t)*h * 3u * sizeof(float))))

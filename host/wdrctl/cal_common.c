@@ -209,7 +209,7 @@ static int select_from_probe(const cal_opts *o, const wdr_cal_source *src, cal_r
     if (wdr_cal_informative_range(grid, MIN_SLOPE_CODES, &r->lo, &r->hi))
         return wdrctl_fail(EX_DATAERR, "the response is flat everywhere: no current range carries contrast");
     r->cfg.range_lo = r->lo, r->cfg.range_hi = r->hi;
-    if ((rc = wdr_cal_select_currents(grid, &r->cfg, n_cur, r->lo, r->hi, o->sample, &r->choice, err, sizeof err)))
+    if (wdr_cal_select_currents(grid, &r->cfg, n_cur, r->lo, r->hi, o->sample, &r->choice, err, sizeof err))
         return wdrctl_fail(EX_DATAERR, "current selection: %s", err);
     return o->frames_auto ? choose_frames(o, grid, r) : EX_OK;
 }

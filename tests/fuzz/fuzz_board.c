@@ -64,7 +64,8 @@ int fz_board_request(wdr_fw *fw, uint8_t op, const uint8_t *payload, uint32_t le
     static uint8_t frame[WDR_PROTO_MAX_FRAME];
     if (len > WDR_PROTO_MAX_PAYLOAD)
         len = WDR_PROTO_MAX_PAYLOAD;
-    wdr_proto_header h = {.opcode = op, .seq = ++seq};
+    seq++;
+    wdr_proto_header h = {.opcode = op, .seq = seq};
     size_t n = wdr_proto_encode(frame, sizeof frame, &h, payload, len);
     want_seq = h.seq;
     got_status = -1;
