@@ -5,7 +5,7 @@
  * into queued events, as interrupt handlers would. */
 #include "hal.h"
 #include "hal_event_ring.h"
-#include "board.h"
+#include "mps2_board.h"
 #include "wdr_proto.h"
 #include <string.h>
 

@@ -10,7 +10,7 @@
  *                                    each capture must equal, to the bit, the host kernel's output
  *                                    for one replay frame (consecutive frames, as the board plays
  *                                    them); prints frames and pixels compared; exit 1 otherwise */
-#include "board.h"
+#include "mps2_board.h"
 #include "correct.h"
 #include "image_io.h"
 #include "wdr_cal.h"

@@ -4,7 +4,7 @@
  * (wdr_readout_row: correction, ROW framing, CRC) per pixel, for every table form. The tables
  * and frames are the target test's (target_data), loaded into PSRAM by QEMU's -device loader.
  * Prints one line per form on UART0: "form NAME corr_milli_insn row_milli_insn", then "done". */
-#include "board.h"
+#include "mps2_board.h"
 #include "correct.h"
 #include "crc32.h"
 #include "wdr_cal.h"
