@@ -92,12 +92,12 @@ int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double
     uint32_t m = extend_entries(t, c, n, t_last, c_last, step, extra);
     wdr_lut_header h = lut.h;
     h.entry_count = m;
-    *out_len = wdr_lut_size(m);
+    *out_len = wdr_lut_size(m) + expo; /* m <= n + extra: steep ends keep one entry per tick */
     uint32_t t_end = t[m - 1] + (uint32_t)ceil(step) + 1;
     h.t_integration_ticks = t_end > lut.h.t_integration_ticks ? t_end : lut.h.t_integration_ticks;
     wdr_lut_encode(&h, t, c, *out);
-    if (expo)
-        memcpy(*out + wdr_lut_size(n + extra), in + wdr_lut_size(n), expo);
+    if (expo) /* right after the entries actually written */
+        memcpy(*out + wdr_lut_size(m), in + wdr_lut_size(n), expo);
     *added_s = (double)(h.t_integration_ticks - lut.h.t_integration_ticks) * lut.h.tick_ps * 1e-12;
     free(t);
     free(c);

@@ -54,8 +54,38 @@ static void steep_ramp_extends_to_a_valid_lut(void **state)
     free(out);
 }
 
+/* The same steep ramp with a LUT 1.1 exposure block: the extension keeps the block, right after
+ * the entries it actually wrote (a merge once put it after n + extra entries while the steep end
+ * kept fewer, so the block was cut off and the board's auto exposure answered UNSUPPORTED). */
+static void extension_keeps_the_exposure_block(void **state)
+{
+    (void)state;
+    static uint8_t in[1024];
+    size_t n = steep_lut(in);
+    wdr_lut_exposure ex = {.code_shift = 6};
+    for (unsigned b = 0; b < WDR_LUT_EXPO_BINS; b++)
+        ex.ln_q8[b] = (int16_t)(1000 - 30 * (int)b);
+    wdr_lut_exposure_encode(&ex, in + n);
+    uint8_t *out = NULL;
+    size_t out_len = 0;
+    double added_s = 0, done_v = 0;
+    char err[256] = "";
+    assert_int_equal(wdr_cal_lut_extend(in, n + WDR_LUT_EXPO_SIZE, 0.012, 0.5, &out, &out_len, &added_s, &done_v, err,
+                                        sizeof err),
+                     WDR_OK);
+    wdr_lut_view v;
+    assert_int_equal(wdr_lut_parse(out, out_len, &v), WDR_OK);
+    assert_int_equal(out_len, wdr_lut_size(v.h.entry_count) + WDR_LUT_EXPO_SIZE);
+    wdr_lut_exposure back;
+    assert_int_equal(wdr_lut_exposure_parse(out + wdr_lut_size(v.h.entry_count), WDR_LUT_EXPO_SIZE, &back), WDR_OK);
+    assert_int_equal(back.code_shift, ex.code_shift);
+    assert_memory_equal(back.ln_q8, ex.ln_q8, sizeof ex.ln_q8);
+    free(out);
+}
+
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(steep_ramp_extends_to_a_valid_lut)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(steep_ramp_extends_to_a_valid_lut),
+                                       cmocka_unit_test(extension_keeps_the_exposure_block)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
