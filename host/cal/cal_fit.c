@@ -79,9 +79,10 @@ static int check_levels(const wdr_cal_levels *lv, const wdr_cal_config *cfg, cha
         snprintf(err, (size_t)errlen, "unknown calibration model %d", cfg->model);
         return WDR_E_INVAL;
     }
-    if (wdr_cal_is_curve_model(cfg->model) ? lv->n < need : lv->n != need) {
-        snprintf(err, (size_t)errlen, "model needs %s%d calibration levels, got %d",
-                 wdr_cal_is_curve_model(cfg->model) ? "at least " : "", need, lv->n);
+    /* the paper models: their parameter count (+ the dark reference) is the exact fit, more
+     * levels a least-squares fit that averages the levels' rounding */
+    if (lv->n < need) {
+        snprintf(err, (size_t)errlen, "model needs at least %d calibration levels, got %d", need, lv->n);
         return WDR_E_INVAL;
     }
     if (lv->n > WDR_PCHIP_MAX || cfg->n_coeffs < 2 || cfg->n_coeffs > (int)WDR_CAL_MAX_COEFFS) {
@@ -137,8 +138,9 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
 {
     long np = (long)lv->width * lv->height;
     double u[WDR_CAL_MAX_LEVELS], y[WDR_CAL_MAX_LEVELS], w[WDR_CAL_MAX_LEVELS];
-    double tol[WDR_CAL_MAX_LEVELS], w_noise[WDR_CAL_MAX_LEVELS];
+    double tol[WDR_CAL_MAX_LEVELS], w_noise[WDR_CAL_MAX_LEVELS], w_code[WDR_CAL_MAX_LEVELS];
     wdr_cal_level_tolerances(lv, &res->cfg, tol, w_noise);
+    wdr_cal_paper_weights(lv, w_code);
     for (int k = 0; k < lv->n; k++) {
         u[k] = lv->amps[k] / res->x_scale;
         w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, lv->amps[k]), 1e-9);
@@ -157,7 +159,7 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
         else if (res->model == WDR_MODEL_SPLINE)
             st = wdr_cal_fit_spline_pixel(y, med, lv->n, tol, w_noise, par);
         else
-            st = wdr_cal_fit_paper_pixel(res, u, y, par);
+            st = wdr_cal_fit_paper_pixel(res, u, y, lv->n, tol, w_code, par);
         if (st) {
             res->status[i] = (uint8_t)st;
             res->flags[i] |= WDR_PIX_UNFIT;

@@ -128,8 +128,9 @@ typedef struct wdr_cal_result {
 /* Detect dead, stuck, hot and saturated pixels into flags (width*height, zeroed first). */
 void wdr_cal_detect_bad(const wdr_cal_levels *lv, const wdr_cal_config *cfg, uint8_t *flags, int *saturated_levels);
 
-/* Fit every pixel. levels: SIMPLE3 needs 3 (+1 dark-end reference first with use_dark_ref),
- * COMPLEX4 4 (+1), LSQ at least WDR_LSQ_PARAMS + 2, POLYMAP at least n_coeffs + 1.
+/* Fit every pixel. levels: SIMPLE3 needs at least 3 (+1 dark-end reference first with
+ * use_dark_ref), COMPLEX4 4 (+1): exactly that many is the paper's exact fit, more a least-squares
+ * fit on the code residuals (wdr_simple3_fit_lsq, wdr_complex4_fit_lsq), LSQ at least WDR_LSQ_PARAMS + 2, POLYMAP at least n_coeffs + 1.
  *
  * LSQ is least squares on a basis that follows from the pixel physics. A pixel whose photodiode
  * capacitance, reset level, M2 threshold, dark current and source-follower offset differ from

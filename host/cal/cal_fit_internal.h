@@ -16,7 +16,9 @@ int wdr_cal_is_curve_model(int model);
 /* cal_fit_paper.c: SIMPLE3/COMPLEX4 per pixel, the POLYMAP map and its variable */
 double wdr_cal_poly_u(const wdr_cal_result *res, double y);
 double wdr_cal_poly_eval(const double *c, int n, double u);
-int wdr_cal_fit_paper_pixel(const wdr_cal_result *res, const double *u, const double *y, double *par);
+int wdr_cal_fit_paper_pixel(const wdr_cal_result *res, const double *u, const double *y, int n, const double *tol,
+                            const double *w, double *par);
+void wdr_cal_paper_weights(const wdr_cal_levels *lv, double *w);
 int wdr_cal_fit_polymap_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w,
                               int n, double *par);
 

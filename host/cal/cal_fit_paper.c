@@ -17,17 +17,38 @@ double wdr_cal_poly_eval(const double *c, int n, double u)
     return v;
 }
 
-/* Fit one pixel with a paper model; u[] and y[] already ordered (dark reference first). */
-int wdr_cal_fit_paper_pixel(const wdr_cal_result *res, const double *u, const double *y, double *par)
+/* Residual weights of a paper model's levels: one over each level's code sd, its temporal noise
+ * left after averaging (measured with the levels) and one ADC rounding (1/12 code^2, which
+ * averaging without noise does not remove). Equal when the noise was not measured. */
+void wdr_cal_paper_weights(const wdr_cal_levels *lv, double *w)
 {
-    int st, ref = res->cfg.use_dark_ref;
+    for (int k = 0; k < lv->n; k++) {
+        double sd = wdr_cal_level_sd(lv, k);
+        w[k] = 1 / sqrt(sd * sd + 1.0 / 12);
+    }
+}
+
+/* Fit one pixel with a paper model; u[], y[] (and w[], may be NULL) hold its n levels, ordered,
+ * the dark reference first when cfg.use_dark_ref. With the paper's count (3 or 4 light levels)
+ * the exact fit; with more, least squares on the code residuals. tol (may be NULL): per pair of
+ * levels the rise that counts as a reversal (wdr_cal_level_tolerances); a least-squares fit
+ * averages smaller ones, an exact fit refuses any. */
+int wdr_cal_fit_paper_pixel(const wdr_cal_result *res, const double *u, const double *y, int n, const double *tol,
+                            const double *w, double *par)
+{
+    int st, ref = res->cfg.use_dark_ref ? 1 : 0;
+    const double *ul = u + ref, *yl = y + ref, *wl = w ? w + ref : NULL;
+    for (int k = ref + 1; tol && k < n; k++)
+        if (y[k] > y[k - 1] + tol[k])
+            return WDR_FIT_REVERSED;
     if (res->model == WDR_MODEL_SIMPLE3) {
         wdr_simple3 m = {.x_scale = res->x_scale};
-        st = ref ? wdr_simple3_fit_dark(u + 1, y + 1, u[0], y[0], &m) : wdr_simple3_fit3(u, y, &m);
+        st = ref ? wdr_simple3_fit_lsq_dark(ul, yl, wl, n - 1, u[0], y[0], &m) : wdr_simple3_fit_lsq(ul, yl, wl, n, &m);
         par[0] = m.a, par[1] = m.b, par[2] = m.c, par[3] = m.d;
     } else {
         wdr_complex4 m = {.x_scale = res->x_scale};
-        st = ref ? wdr_complex4_fit_dark(u + 1, y + 1, u[0], y[0], &m) : wdr_complex4_fit4(u, y, &m);
+        st = ref ? wdr_complex4_fit_lsq_dark(ul, yl, wl, n - 1, u[0], y[0], &m)
+                 : wdr_complex4_fit_lsq(ul, yl, wl, n, &m);
         par[0] = m.p, par[1] = m.q, par[2] = m.r, par[3] = m.s, par[4] = m.d;
     }
     return st;

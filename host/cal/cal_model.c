@@ -278,17 +278,21 @@ int wdr_simple3_invert(const wdr_simple3 *m, double y, double u_cap, double *u)
 
 /* The paper's eq. 20, with the dark reference allowed at a current u0 >= 0: the Moebius family
  * is closed under shifts of u, so d cannot be fitted together with a, b, c; the paper takes
- * a, b, c from the three currents and then d as the shift that puts the dark reading at u0. */
+ * a, b, c from the three currents and then d as the shift that puts the dark reading at u0.
+ * y_first, u_first: the first light level, which the dark reading must lie above. */
+static int simple3_shift_to_dark(wdr_simple3 *m, double u_first, double y_first, double u0, double y0)
+{
+    double t0;
+    if (!isfinite(y0) || y0 <= y_first || wdr_simple3_invert(m, y0, 1e6, &t0))
+        return WDR_FIT_REVERSED; /* the dark reference is not darker than the first current */
+    m->d = t0 - u0;
+    return isfinite(m->d) && m->d > -u_first ? WDR_FIT_OK : WDR_FIT_ILL_COND;
+}
+
 int wdr_simple3_fit_dark(const double u[3], const double y[3], double u0, double y0, wdr_simple3 *m)
 {
     int st = wdr_simple3_fit3(u, y, m);
-    if (st)
-        return st;
-    double t0;
-    if (!isfinite(y0) || y0 <= y[0] || wdr_simple3_invert(m, y0, 1e6, &t0))
-        return WDR_FIT_REVERSED; /* the dark reference is not darker than the first current */
-    m->d = t0 - u0;
-    return isfinite(m->d) && m->d > -u[0] ? WDR_FIT_OK : WDR_FIT_ILL_COND;
+    return st ? st : simple3_shift_to_dark(m, u[0], y[0], u0, y0);
 }
 
 /* ---- 4-parameter model ---- */
@@ -378,14 +382,200 @@ int wdr_complex4_invert(const wdr_complex4 *m, double y, double u_cap, double *u
     return WDR_FIT_OK;
 }
 
-int wdr_complex4_fit_dark(const double u[4], const double y[4], double u0, double y0, wdr_complex4 *m)
+static int complex4_shift_to_dark(wdr_complex4 *m, double u_first, double y_first, double u0, double y0)
 {
-    int st = wdr_complex4_fit4(u, y, m), clamped;
-    if (st)
-        return st;
     double t0;
-    if (!isfinite(y0) || y0 <= y[0] || wdr_complex4_invert(m, y0, 1e6, &t0, &clamped) || clamped)
+    int clamped;
+    if (!isfinite(y0) || y0 <= y_first || wdr_complex4_invert(m, y0, 1e6, &t0, &clamped) || clamped)
         return WDR_FIT_REVERSED;
     m->d = t0 - u0;
-    return isfinite(m->d) && m->d > -u[0] ? WDR_FIT_OK : WDR_FIT_ILL_COND;
+    return isfinite(m->d) && m->d > -u_first ? WDR_FIT_OK : WDR_FIT_ILL_COND;
+}
+
+int wdr_complex4_fit_dark(const double u[4], const double y[4], double u0, double y0, wdr_complex4 *m)
+{
+    int st = wdr_complex4_fit4(u, y, m);
+    return st ? st : complex4_shift_to_dark(m, u[0], y[0], u0, y0);
+}
+
+/* ---- weighted least squares on the code residuals (Gauss-Newton) ----
+ * A level's code carries its rounding (and what is left of the temporal noise) in codes, the
+ * same at every level: least squares on the code residuals is the fit that averages it. */
+
+#define GN_MAX_STEPS 50
+#define GN_MAX_HALVINGS 30
+#define GN_MAX_PARAMS 4
+
+/* A model for the solver: f(t) and its gradient in the parameters; 0 where the denominator is
+ * not positive (the pole side of the curve, never physical). */
+typedef int (*gn_eval_fn)(const double *th, double t, double *f, double *grad);
+
+static double weighted_ss(gn_eval_fn eval, const double *th, const double *u, const double *y, const double *w, int n)
+{
+    double ss = 0, f, grad[GN_MAX_PARAMS];
+    for (int i = 0; i < n; i++) {
+        if (!eval(th, u[i], &f, grad))
+            return INFINITY;
+        double r = (y[i] - f) * (w ? w[i] : 1);
+        ss += r * r;
+    }
+    return isfinite(ss) ? ss : INFINITY;
+}
+
+/* One Gauss-Newton step: min |W (J step - r)| by QR. */
+static int gn_step(gn_eval_fn eval, int p, const double *th, const double *u, const double *y, const double *w, int n,
+                   double *step, double *rcond)
+{
+    double jac[LSQ_MAX_M * GN_MAX_PARAMS], r[LSQ_MAX_M], f;
+    for (int i = 0; i < n; i++) {
+        if (!eval(th, u[i], &f, jac + i * p))
+            return WDR_FIT_POLE;
+        r[i] = y[i] - f;
+    }
+    return wdr_lsq_solve(jac, r, w, n, p, step, rcond);
+}
+
+/* Gauss-Newton from th (pole-free at every point), each step halved until the weighted residual
+ * falls; stops where no step lowers it, or the gain is at rounding level, or after GN_MAX_STEPS. */
+static int gauss_newton(gn_eval_fn eval, int p, const double *u, const double *y, const double *w, int n, double *th,
+                        double *rcond)
+{
+    double ss = weighted_ss(eval, th, u, y, w, n), trial[GN_MAX_PARAMS], step[GN_MAX_PARAMS];
+    if (!isfinite(ss))
+        return WDR_FIT_POLE;
+    for (int it = 0; it < GN_MAX_STEPS && ss > 0; it++) {
+        int st = gn_step(eval, p, th, u, y, w, n, step, rcond);
+        if (st)
+            return st;
+        double lambda = 1, ss_new = INFINITY;
+        for (int h = 0; h < GN_MAX_HALVINGS && !(ss_new < ss); h++, lambda *= 0.5) {
+            for (int j = 0; j < p; j++)
+                trial[j] = th[j] + lambda * step[j];
+            ss_new = weighted_ss(eval, trial, u, y, w, n);
+        }
+        if (!(ss_new < ss))
+            break; /* no step along the Gauss-Newton direction lowers the residual: the minimum */
+        memcpy(th, trial, sizeof(double) * (size_t)p);
+        double gain = ss - ss_new;
+        ss = ss_new;
+        if (gain <= 1e-13 * ss)
+            break;
+    }
+    return all_finite(th, p) ? WDR_FIT_OK : WDR_FIT_NONFINITE;
+}
+
+/* What every least-squares fit asks of its data: currents rising, codes finite and falling from
+ * the first to the last point (ties and small reversals between are the fit's to average). */
+static int lsq_data_ok(const double *u, const double *y, int n, int p)
+{
+    if (n < p || n > LSQ_MAX_M)
+        return WDR_FIT_ILL_COND;
+    int st = currents_ok(u, n);
+    if (st)
+        return st;
+    if (!all_finite(y, n))
+        return WDR_FIT_NONFINITE;
+    return y[n - 1] < y[0] ? WDR_FIT_OK : y[n - 1] == y[0] ? WDR_FIT_FLAT : WDR_FIT_REVERSED;
+}
+
+/* simple3: th = (a, b, c), f = a - b t / (1 + c t) */
+static int simple3_gn_eval(const double *th, double t, double *f, double *grad)
+{
+    double den = 1 + th[2] * t;
+    if (!(den > 0))
+        return 0;
+    *f = th[0] - th[1] * t / den;
+    grad[0] = 1;
+    grad[1] = -t / den;
+    grad[2] = th[1] * t * t / (den * den);
+    return 1;
+}
+
+/* The exact fit through the first, a middle and the last point (the middle nearest the centre
+ * that the closed form accepts). */
+static int simple3_start(const double *u, const double *y, int n, wdr_simple3 *m)
+{
+    int st = WDR_FIT_ILL_COND;
+    for (int off = 0; off < n - 2; off++) {
+        int k = n / 2 + (off % 2 ? -(off + 1) / 2 : off / 2);
+        if (k < 1 || k > n - 2)
+            continue;
+        double uu[3] = {u[0], u[k], u[n - 1]}, yy[3] = {y[0], y[k], y[n - 1]};
+        if (!(st = wdr_simple3_fit3(uu, yy, m)))
+            return WDR_FIT_OK;
+    }
+    return st;
+}
+
+int wdr_simple3_fit_lsq(const double *u, const double *y, const double *w, int n, wdr_simple3 *m)
+{
+    if (n == 3)
+        return wdr_simple3_fit3(u, y, m);
+    int st = lsq_data_ok(u, y, n, 3);
+    if (st || (st = simple3_start(u, y, n, m)))
+        return st;
+    double th[3] = {m->a, m->b, m->c}, rcond;
+    if ((st = gauss_newton(simple3_gn_eval, 3, u, y, w, n, th, &rcond)))
+        return st;
+    if (!(th[1] > 0))
+        return WDR_FIT_REVERSED; /* b > 0: the curve falls everywhere off its pole */
+    m->a = th[0], m->b = th[1], m->c = th[2], m->d = 0;
+    return WDR_FIT_OK;
+}
+
+int wdr_simple3_fit_lsq_dark(const double *u, const double *y, const double *w, int n, double u0, double y0,
+                             wdr_simple3 *m)
+{
+    int st = wdr_simple3_fit_lsq(u, y, w, n, m);
+    return st ? st : simple3_shift_to_dark(m, u[0], y[0], u0, y0);
+}
+
+/* complex4: th = (P, Q, R, S), f = (P + Q t - R t^2) / (1 + S t) */
+static int complex4_gn_eval(const double *th, double t, double *f, double *grad)
+{
+    double den = 1 + th[3] * t;
+    if (!(den > 0))
+        return 0;
+    *f = (th[0] + th[1] * t - th[2] * t * t) / den;
+    grad[0] = 1 / den;
+    grad[1] = t / den;
+    grad[2] = -t * t / den;
+    grad[3] = -t * *f / den;
+    return 1;
+}
+
+/* Eq. 23 over all points: y = P + Q u - R u^2 - S u y, linear in the parameters (QR). */
+static int complex4_start(const double *u, const double *y, const double *w, int n, double *th)
+{
+    double a[LSQ_MAX_M * 4], b[LSQ_MAX_M], rcond;
+    for (int i = 0; i < n; i++) {
+        a[i * 4 + 0] = 1;
+        a[i * 4 + 1] = u[i];
+        a[i * 4 + 2] = -u[i] * u[i];
+        a[i * 4 + 3] = -y[i] * u[i];
+        b[i] = y[i];
+    }
+    return wdr_lsq_solve(a, b, w, n, 4, th, &rcond);
+}
+
+int wdr_complex4_fit_lsq(const double *u, const double *y, const double *w, int n, wdr_complex4 *m)
+{
+    if (n == 4)
+        return wdr_complex4_fit4(u, y, m);
+    int st = lsq_data_ok(u, y, n, 4);
+    double th[4], rcond = 0;
+    if (st || (st = complex4_start(u, y, w, n, th)) || (st = gauss_newton(complex4_gn_eval, 4, u, y, w, n, th, &rcond)))
+        return st;
+    *m = (wdr_complex4){th[0], th[1], th[2], th[3], 0, m->x_scale, rcond};
+    for (int i = 0; i < n; i++)
+        if (!falling_at(m, u[i], wdr_complex4_eval(m, u[i])))
+            return WDR_FIT_REVERSED;
+    return WDR_FIT_OK;
+}
+
+int wdr_complex4_fit_lsq_dark(const double *u, const double *y, const double *w, int n, double u0, double y0,
+                              wdr_complex4 *m)
+{
+    int st = wdr_complex4_fit_lsq(u, y, w, n, m);
+    return st ? st : complex4_shift_to_dark(m, u[0], y[0], u0, y0);
 }

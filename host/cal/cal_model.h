@@ -57,6 +57,21 @@ int wdr_simple3_fit3(const double u[3], const double y[3], wdr_simple3 *m);
  * @retval WDR_FIT_OK or a failure status */
 int wdr_simple3_fit_dark(const double u[3], const double y[3], double u0, double y0, wdr_simple3 *m);
 
+/* Weighted least squares on the code residuals through n >= 3 points (u rising, y falling overall;
+ * w the residuals' weights, one over each level's code sd, NULL for equal ones): with n = 3 the
+ * closed form above (the paper's method); with more, Gauss-Newton from the closed form through
+ * the first, a middle and the last point, each step solved by QR (never normal equations) and
+ * halved until the residual falls, at most 50 steps. More levels average the rounding of each
+ * level's code, which an exact fit through three passes on with a gain above 1 across six
+ * decades. d is left at 0.
+ * @retval WDR_FIT_OK, WDR_FIT_NONFINITE, WDR_FIT_CLOSE_CURRENTS, WDR_FIT_FLAT, WDR_FIT_REVERSED
+ *         (the data or the fitted curve do not fall), WDR_FIT_POLE (a pole at or between the
+ *         points), WDR_FIT_ILL_COND (n out of 3..64, or a rank-deficient step) */
+int wdr_simple3_fit_lsq(const double *u, const double *y, const double *w, int n, wdr_simple3 *m);
+/* The same with a dark-end reference (u0, y0) setting d as wdr_simple3_fit_dark does. */
+int wdr_simple3_fit_lsq_dark(const double *u, const double *y, const double *w, int n, double u0, double y0,
+                             wdr_simple3 *m);
+
 double wdr_simple3_eval(const wdr_simple3 *m, double u);
 /* Inverse (eq. 26, first line): u for response y. @retval WDR_FIT_OK, WDR_FIT_POLE (y beyond the
  * asymptote: *u gets the largest finite value u_cap) */
@@ -76,6 +91,14 @@ typedef struct wdr_complex4 {
 int wdr_complex4_fit4(const double u[4], const double y[4], wdr_complex4 *m);
 /* Same with a dark-end reference (u0, y0) giving d as for the 3-parameter model (eq. 21). */
 int wdr_complex4_fit_dark(const double u[4], const double y[4], double u0, double y0, wdr_complex4 *m);
+/* Weighted least squares on the code residuals through n >= 4 points, as wdr_simple3_fit_lsq:
+ * n = 4 is wdr_complex4_fit4 (the paper's system); more start from the linearised least squares
+ * of eq. 23 over all points (y (1 + S u) = P + Q u - R u^2, by QR) and take Gauss-Newton steps on
+ * the residuals of y itself. The fitted curve must fall at every point.
+ * @retval as wdr_simple3_fit_lsq */
+int wdr_complex4_fit_lsq(const double *u, const double *y, const double *w, int n, wdr_complex4 *m);
+int wdr_complex4_fit_lsq_dark(const double *u, const double *y, const double *w, int n, double u0, double y0,
+                              wdr_complex4 *m);
 double wdr_complex4_eval(const wdr_complex4 *m, double u);
 /* Inverse (eq. 26, second line) on the physical branch, cancellation-free (roots C/q and q/R
  * with q = -(B + sign(B) sqrt(disc))/2); a negative discriminant is clamped to zero and reported

@@ -147,13 +147,13 @@ int wdr_cal_fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const dou
         if (!st && res->model == WDR_MODEL_LSQ && wdr_nominal_build_inverse_table(n))
             return WDR_E_NOMEM;
     } else {
-        st = wdr_cal_fit_paper_pixel(res, u, med, par);
+        st = wdr_cal_fit_paper_pixel(res, u, med, lv->n, NULL, NULL, par);
         if (st && res->cfg.use_dark_ref) {
             /* the median's dark reading does not fit the model: its current scale keeps d = 0 */
             wdr_cal_result plain = *res;
             plain.cfg.use_dark_ref = 0;
             memset(par, 0, sizeof par);
-            st = wdr_cal_fit_paper_pixel(&plain, u + 1, med + 1, par);
+            st = wdr_cal_fit_paper_pixel(&plain, u + 1, med + 1, lv->n - 1, NULL, NULL, par);
         }
     }
     n->s3 = (wdr_simple3){par[0], par[1], par[2], par[3], res->x_scale};

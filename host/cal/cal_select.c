@@ -201,11 +201,13 @@ static void search_warped(const wdr_cal_levels *s, const wdr_cal_config *cfg, co
                           int nc, int n, const int *eval, int n_eval, wdr_cal_choice *best)
 {
     static const double gammas[] = {0, 0.6, 0.7, 0.8, 0.9, 1.0, 1.12, 1.25, 1.4, 1.6};
+    int ref = cfg->use_dark_ref ? 1 : 0; /* the dark reference in front (paper models) */
     for (size_t g = 0; g < sizeof gammas / sizeof gammas[0]; g++) {
         int idx[WDR_CAL_MAX_LEVELS];
-        if (!warped_set(s, cand, nc, n, gammas[g], idx))
+        idx[0] = -1;
+        if (!warped_set(s, cand, nc, n, gammas[g], idx + ref))
             continue;
-        int m = prune_close(s, cfg, med, idx, n);
+        int m = prune_close(s, cfg, med, idx, n + ref);
         double at = 0, w = judge(s, cfg, med, idx, m, eval, n_eval, &at);
         keep_if_better(best, s, idx, m, w, at);
     }
@@ -255,7 +257,10 @@ int wdr_cal_select_currents(const wdr_cal_levels *grid, const wdr_cal_config *cf
     if (!rc)
         rc = sample_medians(&s, med);
     if (!rc) {
-        if (cfg->model == WDR_MODEL_SIMPLE3 || cfg->model == WDR_MODEL_COMPLEX4)
+        /* the paper models' exact fits through 3 or 4 levels: every subset; their least-squares
+         * fits through more, as the curve models, sets that span the range (a subset search would
+         * find sets whose extrapolation clamps, which judging leaves out, and cost binomially) */
+        if (n_currents == (cfg->model == WDR_MODEL_SIMPLE3 ? 3 : cfg->model == WDR_MODEL_COMPLEX4 ? 4 : -1))
             search_subsets(&s, cfg, med, cand, thin_candidates(cand, nc, n_currents), n_currents, eval, n_eval, out);
         else
             search_warped(&s, cfg, med, cand, nc, n_currents, eval, n_eval, out);

@@ -18,9 +18,10 @@ typedef struct wdr_cal_choice {
 
 /* Pick n_currents calibration currents from grid (levels rising; its dark frame is the dark
  * reference when cfg->use_dark_ref) that minimise the worst contrast error over the grid levels
- * in [x_lo, x_hi], judged on up to sample_pixels pixels spread over the array. Paper models
- * search every subset (of a thinned grid when there are too many); LSQ and POLYMAP search
- * log-spaced sets with their density warped towards either end.
+ * in [x_lo, x_hi], judged on up to sample_pixels pixels spread over the array. Paper models with
+ * their parameter count (3 or 4) search every subset (of a thinned grid when there are too many);
+ * with more levels, and the curve models, log-spaced sets spanning the range with their density
+ * warped towards either end.
  * @retval WDR_OK, WDR_E_INVAL (too few grid levels, err says so), WDR_E_NOMEM, WDR_E_NUMERIC */
 int wdr_cal_select_currents(const wdr_cal_levels *grid, const wdr_cal_config *cfg, int n_currents, double x_lo,
                             double x_hi, int sample_pixels, wdr_cal_choice *out, char *err, int errlen);

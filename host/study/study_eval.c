@@ -53,10 +53,9 @@ typedef struct calib {
     int levels_acquired; /* light levels captured on the board (the dark frame not counted) */
 } calib;
 
-static int levels_needed(const study_point *p)
-{
-    return p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_COMPLEX4 ? 4 : p->n_levels;
-}
+/* Light levels; the paper models fit 3 or 4 exactly and more by least squares (the dark frame
+ * is their reference besides). */
+static int levels_needed(const study_point *p) { return p->n_levels; }
 
 /* Log-spaced levels over the range, M frames each plus dark; the paper models get the dark
  * frame as their dark-end reference (level 0), as `wdrctl calibrate` does. */

@@ -48,9 +48,7 @@ void study_point_label(const study_point *p, char *out, int outlen)
     snprintf(out, (size_t)outlen, "adc%d dac%d %s %s %s %s/%s%d%s L%d%s M%d F%d %dx%d%s%s", p->adc_bits, p->dac_bits,
              ranges, timing, p->op, model_name(p->model), form_name(p->form), point_coeffs(p),
              p->coeff_bits < 32 ? "h" : "",
-             p->model == WDR_MODEL_SIMPLE3    ? 3
-             : p->model == WDR_MODEL_COMPLEX4 ? 4
-                                              : p->n_levels,
+             p->n_levels,
              p->levels_choice == STUDY_LEVELS_SELECT ? "sel" : "", p->frames_cal, p->frames_img, p->width, p->height,
              p->op_params[0] ? " " : "", p->op_params);
 }
@@ -122,7 +120,7 @@ static void knob_value(const study_point *p, int k, char *out, size_t cap)
     case 6: snprintf(out, cap, "%d", p->frames_cal); break;
     case 7: snprintf(out, cap, "%d", p->frames_img); break;
     case 8:
-        snprintf(out, cap, "%d", p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_COMPLEX4 ? 4 : p->n_levels);
+        snprintf(out, cap, "%d", p->n_levels);
         break;
     case 9: snprintf(out, cap, "%d", p->coeff_bits); break;
     default: snprintf(out, cap, "%.31s %.30s", p->op, p->op_params); break;

@@ -340,21 +340,23 @@ static int parse_space(const study_knobs *k, space *sp)
 /* A knob that does not act on this point takes its first value only, so no point repeats. */
 static int knob_acts(const study_point *p, int d)
 {
-    int paper = p->model == WDR_MODEL_SIMPLE3 || p->model == WDR_MODEL_COMPLEX4;
     switch (d) {
     case D_ADCR:
     case D_DACR: return !p->fit_ranges;
     case D_ENT: return p->timing == WDR_TIMING_UNIFORM;
     case D_HZ: return p->timing == WDR_TIMING_STAMPED;
     case D_NC: return p->form != WDR_FORM_MOEBIUS;
-    case D_LEV: return !paper;
+    case D_LEV: return 1; /* the paper models too: 3 or 4 levels exact, more least squares */
     default: return 1;
     }
 }
 
-/* Model and table form pairs the table builder accepts (cal_table.c check_form). */
+/* Model and table form pairs the table builder accepts (cal_table.c check_form), and paper models
+ * given at least as many levels as they have parameters. */
 static int form_valid(const study_point *p)
 {
+    if (p->n_levels < (p->model == WDR_MODEL_SIMPLE3 ? 3 : p->model == WDR_MODEL_COMPLEX4 ? 4 : 0))
+        return 0; /* fewer levels than the paper model's parameters */
     if (p->form == WDR_FORM_MOEBIUS)
         return p->model == WDR_MODEL_SIMPLE3;
     if (p->model == WDR_MODEL_POLYMAP && p->form == WDR_FORM_POLY)

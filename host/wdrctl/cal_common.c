@@ -164,7 +164,11 @@ wdr_cal_progress_fn cal_progress_fn(void) { return wdrctl_show_progress() ? show
 
 /* ---- choosing currents ---- */
 
-int cal_default_currents(int model) { return model == WDR_MODEL_SIMPLE3 ? 3 : model == WDR_MODEL_COMPLEX4 ? 4 : 19; }
+/* The paper's models take 5 light levels (their least-squares fit; --select 3 or 4 is the paper's
+ * exact fit): at 12 bits an exact fit through 3 or 4 rounded codes is 1.6-1.8x the quantisation
+ * floor, 5 levels 0.8-0.95x (simple3 with 4: 1.31x), at 2 (simple3) or 1 (complex4) more levels'
+ * frames (tests/calibration/test_cal_endslope.c). The spline: 19. */
+int cal_default_currents(int model) { return model == WDR_MODEL_SIMPLE3 || model == WDR_MODEL_COMPLEX4 ? 5 : 19; }
 
 void cal_grid_amps(double *amps, int *n)
 {
