@@ -20,11 +20,13 @@
 #define H 48
 #define N_TEST 31
 #define FLOOR_FACTOR 1.2
-/* The curve's end slope against the array's measured one: at the dark end, where the response
- * bends by a factor over one knot interval and a three-point estimate is limited to 0, within 5 %.
- * At the bright end the designed shape is 16 % steeper than measured (three-point: 15 % shallower);
- * the cause is not found yet (the realised ramp's start?): held to 20 %. */
-static const double end_slope_tol[2] = {0.05, 0.20};
+/* The curve's end slope against the array's measured one, within 5 % at both ends (measured +0.8 %
+ * dark, -0.9 % bright). Dark end: the response bends by a factor over one knot interval and a
+ * three-point estimate is limited to 0. Bright end (three-point: 15 % shallower): the DAC holds the
+ * ramp's first code from t = 0, and the pixels brighter than about 7.5e-9 A cross that first, shallower
+ * segment of the realised ramp; a design on the ideal ramp was 16.5 % steeper there (cal_design.c
+ * now follows the LUT's first steps). */
+static const double end_slope_tol[2] = {0.05, 0.05};
 
 static int cmp_float(const void *a, const void *b)
 {
