@@ -35,7 +35,7 @@ typedef struct wdr_cal_design {
  * (0: the crossing time of the board's dimmest current); t_after_s: when the row is read
  * (the middle row: height / 2 * row_time); with_effects: 0 leaves the droop, the dark current
  * and the realised ramp's start out (the ideal pixel on the ideal ramp).
- * @retval WDR_OK, or the operator's error (err names it) */
+ * @retval WDR_OK, or the operator's or the board's ramp's error (err names it) */
 int wdr_cal_design_init(wdr_cal_design *d, const wdr_board *b, const char *op_name, double t_int_s, double t_after_s,
                         int with_effects, char *err, int errlen);
 
