@@ -11,8 +11,10 @@
  * nominal curve's 1/|dy/d ln x| (a code error there is a contrast error); their mean and first
  * n-1 principal components (subspace iteration on the weighted covariance) start the basis.
  * Alternating least squares then fits what the kernel computes, on each pixel's own samples:
- * the pixels' coefficients (Householder QR), then the table (conjugate gradients on the normal
- * equations, a small second-difference penalty keeping points no sample reaches smooth). */
+ * the pixels' coefficients (Householder QR, 64 log-spaced currents), then the table (conjugate
+ * gradients on the block-tridiagonal normal equations, from 320 currents per pixel that also
+ * cover the code range evenly, a small second-difference penalty keeping the few points no
+ * sample reaches smooth). */
 #include "cal_basis.h"
 #include "wdr_err.h"
 #include <math.h>
@@ -24,7 +26,11 @@
 #define PCA_ITERATIONS 60
 #define ALS_ROUNDS 4
 #define CG_STEPS 80
-#define SMOOTH_PENALTY 1e-4 /* relative to the mean diagonal of the normal equations */
+#define DENSE_CODES 256     /* the table's fit: samples evenly spaced in code, 2 grid steps apart at n = 8 */
+/* Relative to the mean diagonal of the normal equations. The diagonal is dominated by the ends,
+ * where the weights (one over a small slope) are largest: 1e-4 outweighed the samples mid-range
+ * and the analog fit's objective rose from round to round; 1e-6 only holds what no sample reaches. */
+#define SMOOTH_PENALTY 1e-6
 #define RANGE_PAD 0.02      /* of the code span, on each side of the sampled codes */
 #define MIN_LOG_SLOPE 1.0   /* codes per unit of ln x: floor of the weights' slope */
 
@@ -35,6 +41,8 @@ typedef struct learner {
     double *table;           /* points x n, point-major, double while learning */
     wdr_map_samples *s;      /* m sample pixels' samples */
     double *c;               /* m x n coefficients */
+    int d;                   /* samples per pixel of the table's fit (dense_currents) */
+    double *dy, *dt, *dw;    /* m x d: codes, targets, weights */
 } learner;
 
 /* Position of code y on the grid: point index j < points - 1 and fraction f, clamped as the
@@ -88,6 +96,62 @@ static int code_range(learner *L)
     L->lo = ylo - pad;
     L->step = (yhi - ylo + 2 * pad) / (L->points - 1);
     return 1;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Currents for the table's fit: the 64 log-spaced ones of the coefficient fit and DENSE_CODES
+ * more evenly spaced in the nominal code. Log spacing alone puts the samples 60-90 codes apart
+ * mid-range (300-400 codes per unit of ln x) on a grid of 8-code steps: the grid points between
+ * them are then held only by the spread of the pixels' offsets, and the fit, run to convergence,
+ * bends them to the levels' rounding (12 bits: 1.5x the floor after 8 rounds; the 4 rounds
+ * stopped early gave 1.24x). dens[k]: sqrt of the current's share of ln x over the log spacing,
+ * so the weighted sum still measures the error evenly in ln x, as the contrast error is judged. */
+static void dense_currents(const wdr_nominal *nom, double *xs, double *dens, int d)
+{
+    int nl = WDR_BASIS_SAMPLES, nc = d - nl;
+    double lx0 = log(nom->x_lo), lx1 = log(nom->x_hi), y0 = wdr_nominal_eval(nom, nom->x_lo),
+           y1 = wdr_nominal_eval(nom, nom->x_hi);
+    for (int k = 0; k < nl; k++)
+        xs[k] = lx0 + (lx1 - lx0) * k / (nl - 1);
+    for (int k = 0; k < nc; k++) {
+        double x = wdr_nominal_invert(nom, y0 + (y1 - y0) * (k + 0.5) / nc);
+        xs[nl + k] = log(fmin(fmax(x, nom->x_lo), nom->x_hi));
+    }
+    qsort(xs, (size_t)d, sizeof *xs, cmp_double);
+    double ref = (lx1 - lx0) / (nl - 1);
+    for (int k = 0; k < d; k++) {
+        double a = xs[k > 0 ? k - 1 : k], b = xs[k < d - 1 ? k + 1 : k];
+        dens[k] = sqrt(fmax(0.5 * (b - a), 1e-9) / ref);
+    }
+    for (int k = 0; k < d; k++)
+        xs[k] = exp(xs[k]);
+}
+
+static int dense_samples(learner *L, const long *idx)
+{
+    int d = WDR_BASIS_SAMPLES + DENSE_CODES;
+    double *xs = malloc(sizeof(double) * d), *dens = malloc(sizeof(double) * d);
+    L->d = d;
+    L->dy = malloc(sizeof(double) * (size_t)L->m * d);
+    L->dt = malloc(sizeof(double) * (size_t)L->m * d);
+    L->dw = malloc(sizeof(double) * (size_t)L->m * d);
+    int ok = xs && dens && L->dy && L->dt && L->dw;
+    if (ok) {
+        dense_currents(&L->res->nominal, xs, dens, d);
+        for (int p = 0; p < L->m; p++) {
+            double *w = L->dw + (long)p * d;
+            wdr_cal_map_samples_at(L->res, idx[p], xs, d, L->dy + (long)p * d, L->dt + (long)p * d, w);
+            for (int k = 0; k < d; k++)
+                w[k] *= dens[k];
+        }
+    }
+    free(xs), free(dens);
+    return ok;
 }
 
 /* ---- start: mean and principal components of the weighted maps on the grid ---- */
@@ -188,25 +252,50 @@ static int fit_pixel(const learner *L, const double *tab, const wdr_map_samples 
     return !wdr_lsq_solve(a, t, s->w, WDR_BASIS_SAMPLES, L->n, c, &rcond);
 }
 
+/* The data part of the table's normal equations, A^T W^2 A: a sample between points j and j + 1
+ * couples only their n values each, so it is block tridiagonal (diagonal blocks nd, upper nu,
+ * n x n per point), assembled once per round; the conjugate gradients then cost nothing per
+ * sample, however densely the maps are sampled. */
+static void normal_build(const learner *L, double *nd, double *nu)
+{
+    int n = L->n;
+    size_t blocks = sizeof(double) * (size_t)L->points * n * n;
+    memset(nd, 0, blocks), memset(nu, 0, blocks);
+    for (int p = 0; p < L->m; p++) {
+        const double *c = L->c + (long)p * n;
+        for (int k = 0; k < L->d; k++) {
+            long e = (long)p * L->d + k;
+            double f, w2 = L->dw[e] * L->dw[e];
+            int j = grid_point(L->points, L->lo, L->step, L->dy[e], &f);
+            double a0 = w2 * (1 - f) * (1 - f), a1 = w2 * f * f, a01 = w2 * (1 - f) * f;
+            double *d0 = nd + (long)j * n * n, *d1 = d0 + n * n, *u0 = nu + (long)j * n * n;
+            for (int q = 0; q < n; q++)
+                for (int r = 0; r < n; r++) {
+                    double cc = c[q] * c[r];
+                    d0[q * n + r] += a0 * cc, d1[q * n + r] += a1 * cc, u0[q * n + r] += a01 * cc;
+                }
+        }
+    }
+}
+
 /* out = (A^T W^2 A + lambda D^T D) in, A the samples' rows in the table's unknowns. */
-static void normal_apply(const learner *L, double lambda, const double *in, double *out)
+static void normal_apply(const learner *L, const double *nd, const double *nu, double lambda, const double *in,
+                         double *out)
 {
     int n = L->n;
     memset(out, 0, sizeof(double) * (size_t)L->points * n);
-    for (int p = 0; p < L->m; p++) {
-        const double *c = L->c + (long)p * n;
-        for (int k = 0; k < WDR_BASIS_SAMPLES; k++) {
-            double f, v = 0, w2 = L->s[p].w[k] * L->s[p].w[k];
-            int j = grid_point(L->points, L->lo, L->step, L->s[p].y[k], &f);
-            const double *i0 = in + (long)j * n;
+    for (int j = 0; j < L->points; j++) {
+        const double *d = nd + (long)j * n * n, *u = nu + (long)j * n * n, *i0 = in + (long)j * n;
+        double *o0 = out + (long)j * n;
+        for (int q = 0; q < n; q++)
+            for (int r = 0; r < n; r++)
+                o0[q] += d[q * n + r] * i0[r];
+        if (j + 1 < L->points)
             for (int q = 0; q < n; q++)
-                v += c[q] * ((1 - f) * i0[q] + f * i0[n + q]);
-            double *o0 = out + (long)j * n;
-            for (int q = 0; q < n; q++) {
-                o0[q] += w2 * v * c[q] * (1 - f);
-                o0[n + q] += w2 * v * c[q] * f;
-            }
-        }
+                for (int r = 0; r < n; r++) {
+                    o0[q] += u[q * n + r] * i0[n + r];
+                    o0[n + r] += u[q * n + r] * i0[q];
+                }
     }
     for (int j = 1; j < L->points - 1; j++)
         for (int q = 0; q < n; q++) {
@@ -221,11 +310,11 @@ static double normal_lambda(const learner *L)
 {
     double diag = 0;
     for (int p = 0; p < L->m; p++)
-        for (int k = 0; k < WDR_BASIS_SAMPLES; k++) {
+        for (int k = 0; k < L->d; k++) {
             double c2 = 0;
             for (int q = 0; q < L->n; q++)
                 c2 += L->c[(long)p * L->n + q] * L->c[(long)p * L->n + q];
-            c2 *= L->s[p].w[k] * L->s[p].w[k];
+            c2 *= L->dw[(long)p * L->d + k] * L->dw[(long)p * L->d + k];
             diag += c2;
         }
     return SMOOTH_PENALTY * diag / ((double)L->points * L->n);
@@ -236,20 +325,23 @@ static int refit_table(learner *L, double *work)
 {
     long len = (long)L->points * L->n;
     double *rhs = work, *r = work + len, *p = work + 2 * len, *ap = work + 3 * len;
+    double *nd = work + 4 * len, *nu = nd + len * L->n;
     double lambda = normal_lambda(L);
+    normal_build(L, nd, nu);
     memset(rhs, 0, sizeof(double) * (size_t)len);
     for (int q = 0; q < L->m; q++) {
         const double *c = L->c + (long)q * L->n;
-        for (int k = 0; k < WDR_BASIS_SAMPLES; k++) {
-            double f, w2t = L->s[q].w[k] * L->s[q].w[k] * L->s[q].t[k];
-            int j = grid_point(L->points, L->lo, L->step, L->s[q].y[k], &f);
+        for (int k = 0; k < L->d; k++) {
+            long e = (long)q * L->d + k;
+            double f, w2t = L->dw[e] * L->dw[e] * L->dt[e];
+            int j = grid_point(L->points, L->lo, L->step, L->dy[e], &f);
             for (int i = 0; i < L->n; i++) {
                 rhs[(long)j * L->n + i] += w2t * c[i] * (1 - f);
                 rhs[(long)(j + 1) * L->n + i] += w2t * c[i] * f;
             }
         }
     }
-    normal_apply(L, lambda, L->table, ap);
+    normal_apply(L, nd, nu, lambda, L->table, ap);
     double rr = 0;
     for (long i = 0; i < len; i++) {
         r[i] = rhs[i] - ap[i];
@@ -257,7 +349,7 @@ static int refit_table(learner *L, double *work)
         rr += r[i] * r[i];
     }
     for (int it = 0; it < CG_STEPS && rr > 0; it++) {
-        normal_apply(L, lambda, p, ap);
+        normal_apply(L, nd, nu, lambda, p, ap);
         double pap = 0, rn = 0;
         for (long i = 0; i < len; i++)
             pap += p[i] * ap[i];
@@ -281,7 +373,7 @@ static int refit_table(learner *L, double *work)
 
 static int alternate(learner *L)
 {
-    double *work = malloc(sizeof(double) * 4 * (size_t)L->points * L->n);
+    double *work = malloc(sizeof(double) * (4 + 2 * (size_t)L->n) * (size_t)L->points * L->n);
     int ok = work != NULL;
     for (int round = 0; ok && round < ALS_ROUNDS; round++) {
         for (int p = 0; p < L->m; p++)
@@ -327,6 +419,8 @@ int wdr_cal_basis_learn(const wdr_cal_result *res, int n, wdr_basis *b, char *er
         snprintf(err, (size_t)errlen, "shared basis: the pixels' codes span no range");
         rc = WDR_E_NUMERIC;
     }
+    if (!rc && !dense_samples(&L, idx))
+        rc = WDR_E_NOMEM;
     if (!rc && !start_basis(&L, idx))
         rc = WDR_E_NOMEM;
     if (!rc && !alternate(&L)) {
@@ -337,7 +431,7 @@ int wdr_cal_basis_learn(const wdr_cal_result *res, int n, wdr_basis *b, char *er
         snprintf(err, (size_t)errlen, "shared basis: degenerate (a basis function is zero everywhere)");
     if (rc == WDR_E_NOMEM)
         snprintf(err, (size_t)errlen, "shared basis: out of memory");
-    free(L.s), free(L.c), free(L.table);
+    free(L.s), free(L.c), free(L.table), free(L.dy), free(L.dt), free(L.dw);
     if (rc)
         wdr_cal_basis_free(b);
     return rc;

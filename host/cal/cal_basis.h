@@ -14,6 +14,9 @@ typedef struct wdr_map_samples {
 
 /* Fill s for pixel i (in cal_table.c, beside the polynomial form's sampling). */
 void wdr_cal_map_samples(const wdr_cal_result *res, long i, wdr_map_samples *s);
+/* The same at any m currents xs: codes y, targets t, weights w (the shared table's dense fit). */
+void wdr_cal_map_samples_at(const wdr_cal_result *res, long i, const double *xs, int m, double *y, double *t,
+                            double *w);
 
 /* The shared table: points x n float32, point-major, over raw codes lo + j * step. */
 typedef struct wdr_basis {

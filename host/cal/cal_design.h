@@ -12,6 +12,8 @@
 #include "operators.h"
 #include "ramp.h"
 
+#define WDR_CAL_DESIGN_START_NODES 8 /* the realised ramp's first nodes the design keeps */
+
 typedef struct wdr_cal_design {
     wdr_board board;
     wdr_ideal_pixel px;
@@ -20,14 +22,20 @@ typedef struct wdr_cal_design {
     double t_after_s;    /* time from the end of integration until the row is read */
     double leak_v_per_s; /* hold-node droop rate (0: no droop) */
     double dark_a;       /* the median dark current, added to the photocurrent */
+    /* The start of the ramp the DAC realises (the board's LUT, its steps joined at their
+     * midpoints as the simulator's continuous ramp joins them): its first code is held from
+     * t = 0, so the brightest currents cross a ramp shallower than the ideal one. Crossings
+     * before start_t[n_start - 1] use these nodes, later ones the ideal ramp (0: none). */
+    int n_start;
+    double start_t[WDR_CAL_DESIGN_START_NODES], start_v[WDR_CAL_DESIGN_START_NODES];
 } wdr_cal_design;
 
 /* The design of board b under operator op_name (default parameters and the board's default scene
  * statistics, as `wdrctl lut build` without an image). t_int_s: the LUT's integration time
  * (0: the crossing time of the board's dimmest current); t_after_s: when the row is read
- * (the middle row: height / 2 * row_time); with_effects: 0 leaves the droop and the dark
- * current out (the ideal pixel of the ramp design).
- * @retval WDR_OK, or the operator's error (err names it) */
+ * (the middle row: height / 2 * row_time); with_effects: 0 leaves the droop, the dark current
+ * and the realised ramp's start out (the ideal pixel on the ideal ramp).
+ * @retval WDR_OK, or the operator's or the board's ramp's error (err names it) */
 int wdr_cal_design_init(wdr_cal_design *d, const wdr_board *b, const char *op_name, double t_int_s, double t_after_s,
                         int with_effects, char *err, int errlen);
 

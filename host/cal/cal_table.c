@@ -130,13 +130,18 @@ static void log_spaced(const wdr_cal_result *res, double *xs, int m)
         xs[k] = exp(lx0 + (lx1 - lx0) * k / (m - 1));
 }
 
+void wdr_cal_map_samples_at(const wdr_cal_result *res, long i, const double *xs, int m, double *y, double *t, double *w)
+{
+    sample_codes(res, i, xs, y, m);
+    for (int k = 0; k < m; k++)
+        map_target(res, i, xs[k], y[k], &t[k], &w[k]);
+}
+
 void wdr_cal_map_samples(const wdr_cal_result *res, long i, wdr_map_samples *s)
 {
     double xs[WDR_BASIS_SAMPLES];
     log_spaced(res, xs, WDR_BASIS_SAMPLES);
-    sample_codes(res, i, xs, s->y, WDR_BASIS_SAMPLES);
-    for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
-        map_target(res, i, xs[k], s->y[k], &s->t[k], &s->w[k]);
+    wdr_cal_map_samples_at(res, i, xs, WDR_BASIS_SAMPLES, s->y, s->t, s->w);
 }
 
 /* Least-squares polynomial in u = 2y/raw_max - 1 through samples of the exact map over the

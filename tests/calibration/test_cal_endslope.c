@@ -20,11 +20,13 @@
 #define H 48
 #define N_TEST 31
 #define FLOOR_FACTOR 1.2
-/* The curve's end slope against the array's measured one: at the dark end, where the response
- * bends by a factor over one knot interval and a three-point estimate is limited to 0, within 5 %.
- * At the bright end the designed shape is 16 % steeper than measured (three-point: 15 % shallower);
- * the cause is not found yet (the realised ramp's start?): held to 20 %. */
-static const double end_slope_tol[2] = {0.05, 0.20};
+/* The curve's end slope against the array's measured one, within 5 % at both ends (measured +0.8 %
+ * dark, -0.9 % bright). Dark end: the response bends by a factor over one knot interval and a
+ * three-point estimate is limited to 0. Bright end (three-point: 15 % shallower): the DAC holds the
+ * ramp's first code from t = 0, and the pixels brighter than about 7.5e-9 A cross that first, shallower
+ * segment of the realised ramp; a design on the ideal ramp was 16.5 % steeper there (cal_design.c
+ * now follows the LUT's first steps). */
+static const double end_slope_tol[2] = {0.05, 0.05};
 
 static int cmp_float(const void *a, const void *b)
 {
@@ -115,14 +117,15 @@ typedef struct model_case {
 } model_case;
 
 /* The spline (the N-current model the product calibrates with): within 1.2x its floor through the
- * model; its shared-basis table adds a residual of its own mid-range (8 shared functions cannot
- * follow every pixel's rounded levels), measured 1.24x, held to 1.3x. The paper's models: an exact
+ * model (measured 1.09x) and through its shared-basis table (0.98x: the basis, learnt from samples
+ * that cover the code range evenly, smooths over the levels' rounding mid-range; learnt from 64
+ * log-spaced currents only it was 1.24x, see host/cal/cal_basis.c). The paper's models: an exact
  * fit through their 3 or 4 rounded codes passes the rounding on with a gain above 1 when
  * extrapolated over six decades (measured 1.74x simple3, 1.63x / 1.83x complex4); a least-squares
  * fit on the code residuals of 5 levels averages it: simple3 0.83x, complex4 0.89x / 0.94x
  * (simple3 with 4 levels: 1.31x). */
 static const model_case cases[] = {
-    {WDR_MODEL_SPLINE, "spline", 19, 0, 1.3, FLOOR_FACTOR},
+    {WDR_MODEL_SPLINE, "spline", 19, 0, FLOOR_FACTOR, FLOOR_FACTOR},
     {WDR_MODEL_SIMPLE3, "simple3", 5, 3, FLOOR_FACTOR, FLOOR_FACTOR},
     {WDR_MODEL_COMPLEX4, "complex4", 5, 4, FLOOR_FACTOR, FLOOR_FACTOR},
 };
