@@ -27,12 +27,15 @@ const char *cal_form_name(int form)
 int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o)
 {
     int n_args;
-    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .frames_auto = 1, .adc = 1, .dac = 1, .sample = 256,
+    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .frames_auto = 1, .adc = 1, .dac = 1, .noise = -1, .sample = 256,
                     .seed = 1, .out_scale = 1,
                     .form = -1};
     int rc = wdrctl_parse(cmd, argc, argv, o, &n_args);
     if (rc != EX_OK)
         return rc;
+    o->noise_asked = o->noise >= 0;
+    if (!o->noise_asked)
+        o->noise = CAL_NOISE_DEFAULT;
     if (o->frames_text && (o->frames_auto = !strcmp(o->frames_text, "auto")) == 0) {
         long long n = 0;
         if (cli_number_long(o->frames_text, 1, 4096, &n) != CLI_NUM_OK)
