@@ -192,9 +192,12 @@ static int choose_frames(const cal_opts *o, const wdr_cal_levels *probe, cal_run
             "wdrctl: --frames auto: %d frames per level: the measured temporal noise is %.3g codes per frame at "
             "%.3g A, where the response has %.3g codes per unit ln I; %d frames bring it below %.3g codes (%s)",
             r->frames, r->why.sigma_codes, r->why.at_amps, r->why.slope, r->why.needed, r->why.want_codes, why);
-    if (r->why.capped)
-        fprintf(stderr, "; capped at %d frames, which leave %.3g codes", AUTO_FRAMES_MAX,
-                r->why.sigma_codes / sqrt((double)r->frames));
+    if (r->why.capped) { /* what the cap costs, in the contrast error it leaves at the level that decided */
+        double left = r->why.sigma_codes / sqrt((double)r->frames);
+        fprintf(stderr, "; capped at %d frames, which leave %.3g codes: a %.2g %% contrast error from temporal noise "
+                "there, where %d frames would leave %.2g %%", AUTO_FRAMES_MAX, left, 100 * left / r->why.slope,
+                r->why.needed, 100 * r->why.want_codes / r->why.slope);
+    }
     fputc('\n', stderr);
     return EX_OK;
 }
