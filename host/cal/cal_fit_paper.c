@@ -37,8 +37,8 @@ int wdr_cal_fit_paper_pixel(const wdr_cal_result *res, const double *u, const do
  * weighted so each residual is in units of ln x (i.e. relative current, the contrast error).
  * Judged against the pixel's noise and the model's misfit (lim, cal_residual.c), not a fixed
  * residual: a healthy pixel is unfit only on evidence. */
-int wdr_cal_fit_polymap_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w,
-                              int n, const wdr_cal_residual_limit *lim, double *par, double *resid)
+int wdr_cal_fit_polymap_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w, int n,
+                              const wdr_cal_residual_limit *lim, double *par, double *resid)
 {
     int nc = res->n_params;
     double a[WDR_CAL_MAX_LEVELS * WDR_CAL_MAX_COEFFS], t[WDR_CAL_MAX_LEVELS], rcond;

@@ -79,7 +79,7 @@ void wdr_cal_residual_limit_init(const wdr_cal_levels *lv, const wdr_cal_result 
                                  const double *w, wdr_cal_residual_limit *lim)
 {
     long np = (long)lv->width * lv->height, stride = np > MISFIT_SAMPLE ? np / MISFIT_SAMPLE : 1, m = 0;
-    double misfit[MISFIT_SAMPLE + 1];
+    double misfit[MISFIT_SAMPLE + 1] = {0};
     level_sd_ln(lv, res, lim->sd_ln, &lim->noise_ln);
     /* noise left in a least-squares residual: n - p of the n levels' variance */
     double dof = lv->n > res->n_params ? (double)(lv->n - res->n_params) / lv->n : 0;

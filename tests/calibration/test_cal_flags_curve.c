@@ -56,13 +56,17 @@ static void chip_open(chip *c, int with_defects)
         long np = (long)WIDTH * HEIGHT, corner[4] = {0, np - 1, (long)(HEIGHT - 1) * WIDTH, WIDTH - 1};
         uint8_t kind[4] = {WDR_DEFECT_DEAD, WDR_DEFECT_HOT, WDR_DEFECT_STUCK, WDR_DEFECT_SATURATED};
         wdr_sim_defects d = {.ppm = {0, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM},
-                             .seed = 99, .n_listed = 4, .listed_index = corner, .listed_kind = kind};
+                             .seed = 99,
+                             .n_listed = 4,
+                             .listed_index = corner,
+                             .listed_kind = kind};
         assert_int_equal(wdr_sim_set_defects(c->sim, &d), WDR_OK);
     }
     c->truth = malloc((size_t)WIDTH * HEIGHT);
     wdr_sim_defect_map(c->sim, c->truth);
+    int middle_row = HEIGHT / 2; /* read at the middle row, as wdrctl's design */
     if (wdr_cal_design_init(&c->design, &c->b, "reinhard", wdr_sim_integration_time(c->sim),
-                            HEIGHT / 2 * c->b.row_time_s, 1, err, sizeof err))
+                            middle_row * c->b.row_time_s, 1, err, sizeof err))
         fail_msg("design: %s", err);
 }
 
@@ -216,14 +220,38 @@ static void planted_defects(int model)
     chip_close(&c);
 }
 
-static void lsq_clean_auto(void **s) { (void)s, clean_chip(WDR_MODEL_LSQ, 0); }
-static void lsq_clean_2_frames(void **s) { (void)s, clean_chip(WDR_MODEL_LSQ, 2); }
-static void lsq_defects(void **s) { (void)s, planted_defects(WDR_MODEL_LSQ); }
-static void lsq_wild(void **s) { (void)s, wild_responses(WDR_MODEL_LSQ); }
-static void polymap_clean_auto(void **s) { (void)s, clean_chip(WDR_MODEL_POLYMAP, 0); }
-static void polymap_clean_2_frames(void **s) { (void)s, clean_chip(WDR_MODEL_POLYMAP, 2); }
-static void polymap_defects(void **s) { (void)s, planted_defects(WDR_MODEL_POLYMAP); }
-static void polymap_wild(void **s) { (void)s, wild_responses(WDR_MODEL_POLYMAP); }
+static void lsq_clean_auto(void **s)
+{
+    (void)s, clean_chip(WDR_MODEL_LSQ, 0);
+}
+static void lsq_clean_2_frames(void **s)
+{
+    (void)s, clean_chip(WDR_MODEL_LSQ, 2);
+}
+static void lsq_defects(void **s)
+{
+    (void)s, planted_defects(WDR_MODEL_LSQ);
+}
+static void lsq_wild(void **s)
+{
+    (void)s, wild_responses(WDR_MODEL_LSQ);
+}
+static void polymap_clean_auto(void **s)
+{
+    (void)s, clean_chip(WDR_MODEL_POLYMAP, 0);
+}
+static void polymap_clean_2_frames(void **s)
+{
+    (void)s, clean_chip(WDR_MODEL_POLYMAP, 2);
+}
+static void polymap_defects(void **s)
+{
+    (void)s, planted_defects(WDR_MODEL_POLYMAP);
+}
+static void polymap_wild(void **s)
+{
+    (void)s, wild_responses(WDR_MODEL_POLYMAP);
+}
 
 int main(void)
 {
