@@ -27,15 +27,8 @@ const char *cal_form_name(int form)
 int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o)
 {
     int n_args;
-    *o = (cal_opts){.op_name = "reinhard",
-                    .frames = 4,
-                    .frames_auto = 1,
-                    .adc = 1,
-                    .dac = 1,
-                    .noise = -1,
-                    .sample = 256,
-                    .seed = 1,
-                    .out_scale = 1,
+    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .frames_auto = 1, .adc = 1, .dac = 1, .noise = -1,
+                    .sample = 256, .seed = 1, .out_scale = 1,
                     .form = -1};
     int rc = wdrctl_parse(cmd, argc, argv, o, &n_args);
     if (rc != EX_OK)

@@ -19,8 +19,8 @@
 typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
     int select_n, frames, adc, dac, upload, json, sample, out_scale;
-    int noise; /* simulated chip: temporal noise (shot, kTC, read) on (calibrate --noise; fpn report per condition) */
-    int noise_asked;         /* --noise was given (a board has its own noise: calibrate --device refuses it) */
+    int noise;       /* simulated chip: temporal noise (shot, kTC, read); calibrate --noise, fpn report per condition */
+    int noise_asked; /* --noise was given (a board has its own noise: calibrate --device refuses it) */
     const char *frames_text; /* --frames M or auto */
     int frames_auto;         /* --frames auto (the default): chosen from the probe's measured noise */
     int form;                /* enum wdr_cal_form; -1: the model's default */
@@ -43,12 +43,9 @@ extern const cli_choice cal_on_off[], cal_forms[];
     {"adc", 0, CLI_CHOICE, CAL_O(adc), "on|off", "the simulated column ADC quantises (default on)", .choices = cal_on_off}
 #define CAL_ROW_DAC                                                                                                  \
     {"dac", 0, CLI_CHOICE, CAL_O(dac), "on|off", "the simulated ramp DAC quantises (default on)", .choices = cal_on_off}
-#define CAL_ROW_NOISE                                                                                                  \
-    {                                                                                                                  \
-        "noise", 0, CLI_CHOICE, CAL_O(noise), "on|off",                                                                \
-            "the simulated chip's temporal noise: shot, kTC, read (default " CAL_NOISE_DEFAULT_NAME ")",               \
-            .choices = cal_on_off                                                                                      \
-    }
+#define CAL_ROW_NOISE                                                                                                \
+    {"noise", 0, CLI_CHOICE, CAL_O(noise), "on|off",                                                                 \
+     "the simulated chip's temporal noise: shot, kTC, read (default " CAL_NOISE_DEFAULT_NAME ")", .choices = cal_on_off}
 #define CAL_ROW_FRAMES                                                                                               \
     {"frames", 0, CLI_STRING, CAL_O(frames_text), "M|auto",                                                       \
      "frames averaged per level, 1..4096 (default auto: from the measured noise)"}

@@ -278,23 +278,14 @@ static const cli_option calibrate_rows[] = {
     {"models", 0, CLI_STRING, CAL_O(models), "NAME", "the same as --model", .flags = CLI_HIDDEN},
     {"currents", 0, CLI_STRING, CAL_O(currents), "A,B,..", "the light levels, in A per pixel, rising"},
     {"levels-file", 0, CLI_STRING, CAL_O(levels_file), "FILE", "the light levels, one per line (# comments)"},
-    {"select", 0, CLI_INT, CAL_O(select_n), "N", "choose N levels from a probe", .min = 2,
-     .max = WDR_CAL_MAX_LEVELS - 1},
-    CAL_ROW_FRAMES,
-    CAL_ROW_BOARD,
-    CAL_ROW_OPERATOR,
-    CAL_ROW_ADC,
-    CAL_ROW_DAC,
-    CAL_ROW_NOISE,
+    {"select", 0, CLI_INT, CAL_O(select_n), "N", "choose N levels from a probe", .min = 2, .max = WDR_CAL_MAX_LEVELS - 1},
+    CAL_ROW_FRAMES, CAL_ROW_BOARD, CAL_ROW_OPERATOR, CAL_ROW_ADC, CAL_ROW_DAC, CAL_ROW_NOISE,
     {"lut", 0, CLI_STRING, CAL_O(lut), "LUT.bin", "with --device: image with this LUT (stored with a margin)"},
     {"upload", 0, CLI_FLAG, CAL_O(upload), NULL, "with --device: store the table on the board and apply it"},
     CAL_ROW_OUT_SCALE,
     {"form", 0, CLI_CHOICE, CAL_O(form), NULL, "table form (default: the model's)", .choices = cal_forms,
      .what = "table form"},
-    CAL_ROW_SAMPLE,
-    CAL_ROW_SEED,
-    CAL_ROW_JSON,
-    {0}};
+    CAL_ROW_SAMPLE, CAL_ROW_SEED, CAL_ROW_JSON, {0}};
 
 const cli_command wdrctl_cmd_calibrate = {
     "calibrate", NULL, 0, 0, "fixed-pattern-noise calibration of the simulated chip, or of a board (--device)",
@@ -367,8 +358,8 @@ int cmd_calibrate(int argc, char **argv)
         cal_set_step(&b, &r.cfg);
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
-    verify_ctx v = {
-        .can_light = 1, .quantised = o.adc, .temporal = o.noise, .design = &c.design, .holds_with = sim_conditions(&o)};
+    verify_ctx v = {.can_light = 1, .quantised = o.adc, .temporal = o.noise, .design = &c.design,
+                    .holds_with = sim_conditions(&o)};
     rc = verify_display(&o, &b, &v);
     if (rc == EX_OK)
         rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model, &v);
