@@ -27,7 +27,7 @@ void wdr_cal_config_defaults(wdr_cal_config *c, int model)
     c->stuck_frac = 0.01;
     c->dead_frac = 0.5;
     c->hot_frac = 0.25;
-    c->max_residual = 0.05;
+    c->max_residual = 0.5; /* LSQ/POLYMAP: caps the misfit a chip excuses (healthy: <= 0.21, cal_residual.c) */
     c->tie_codes = 0.5;
     c->tie_sigmas = 5;
     c->spacing_sigmas = 3;
@@ -145,6 +145,9 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
         u[k] = lv->amps[k] / res->x_scale;
         w[k] = 1 / fmax(wdr_nominal_log_slope(&res->nominal, lv->amps[k]), 1e-9);
     }
+    wdr_cal_residual_limit lim = {.limit = INFINITY}; /* LSQ, POLYMAP: the pixel's noise plus the model's misfit */
+    if (res->model == WDR_MODEL_LSQ || res->model == WDR_MODEL_POLYMAP)
+        wdr_cal_residual_limit_init(lv, res, med, w, &lim);
     for (long i = 0; i < np; i++) {
         double *par = res->params + i * res->n_params;
         if (res->flags[i])
@@ -153,9 +156,9 @@ static void fit_all_pixels(const wdr_cal_levels *lv, wdr_cal_result *res, const 
             y[k] = lv->frames[(long)k * np + i];
         int st;
         if (res->model == WDR_MODEL_LSQ)
-            st = wdr_cal_fit_lsq_pixel(res, y, u, lv->n, med, par);
+            st = wdr_cal_fit_lsq_pixel(res, y, u, lv->n, med, &lim, par, NULL);
         else if (res->model == WDR_MODEL_POLYMAP)
-            st = wdr_cal_fit_polymap_pixel(res, y, med, w, lv->n, par);
+            st = wdr_cal_fit_polymap_pixel(res, y, med, w, lv->n, &lim, par, NULL);
         else if (res->model == WDR_MODEL_SPLINE)
             st = wdr_cal_fit_spline_pixel(y, med, lv->n, tol, w_noise, par);
         else

@@ -63,7 +63,9 @@ typedef struct wdr_cal_config {
     float out_scale;    /* output code per raw code unit (default 1: frames keep the ADC's range) */
     uint16_t out_max;   /* largest output code (default raw_max * out_scale) */
     double stuck_frac, dead_frac, hot_frac; /* bad-pixel thresholds (see cal_fit.c) */
-    double max_residual;/* LSQ/POLYMAP: largest rms relative residual at the calibration currents */
+    double max_residual;       /* LSQ/POLYMAP: most rms residual (ln x) the model's own misfit on a chip may excuse;
+                                  a pixel is unfit beyond tie_sigmas sigma of its noise plus that misfit
+                                  (host/cal/cal_residual.c; default 0.5, healthy pixels measured <= 0.21) */
     double range_lo, range_hi; /* currents the table must serve (A); 0: the calibration currents' span */
     double tie_codes;   /* SPLINE/LSQ curves: neighbouring levels closer than this are quantisation ties
                            (default 0.5, half an ADC code; about 1e-3 for unquantised data) */

@@ -97,21 +97,30 @@ static double lsq_search_offset(const wdr_cal_result *res, const double *y, cons
     return r;
 }
 
-int wdr_cal_fit_lsq_pixel(const wdr_cal_result *res, const double *y, const double *u, int n, const double *med,
-                         double *theta)
+/* The recovered current must rise as the code falls across the calibrated span; a dip within the
+ * residual limit (ln x) is noise the fit followed, not a reversed pixel. */
+static int lsq_rises(const wdr_cal_result *res, const double *theta, const double *y, int n, double limit)
 {
-    double r = lsq_search_offset(res, y, u, n, med, theta);
-    if (!isfinite(r))
-        return WDR_FIT_ILL_COND;
-    if (!(r <= res->cfg.max_residual))
-        return WDR_FIT_RESIDUAL;
-    /* recovered current must rise as the code falls across the calibrated span */
-    double prev = -INFINITY;
+    double x_max = -INFINITY;
     for (int s = 0; s <= 32; s++) {
         double x = wdr_cal_lsq_recover_u(res, theta, y[0] + (y[n - 1] - y[0]) * s / 32.0);
-        if (!(x > prev))
-            return WDR_FIT_REVERSED;
-        prev = x;
+        if (x > x_max)
+            x_max = x;
+        else if (!(x > 0 && log(x_max / x) <= limit))
+            return 0;
     }
-    return WDR_FIT_OK;
+    return 1;
+}
+
+int wdr_cal_fit_lsq_pixel(const wdr_cal_result *res, const double *y, const double *u, int n, const double *med,
+                          const wdr_cal_residual_limit *lim, double *theta, double *resid)
+{
+    double r = lsq_search_offset(res, y, u, n, med, theta);
+    if (resid)
+        *resid = r;
+    if (!isfinite(r))
+        return WDR_FIT_ILL_COND;
+    if (!(r <= lim->limit))
+        return WDR_FIT_RESIDUAL;
+    return lsq_rises(res, theta, y, n, lim->limit) ? WDR_FIT_OK : WDR_FIT_REVERSED;
 }

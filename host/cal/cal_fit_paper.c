@@ -55,9 +55,11 @@ int wdr_cal_fit_paper_pixel(const wdr_cal_result *res, const double *u, const do
 }
 
 /* POLYMAP: the polynomial map from this pixel's codes to the nominal codes at the same currents,
- * weighted so each residual is in units of ln x (i.e. relative current, the contrast error). */
-int wdr_cal_fit_polymap_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w,
-                         int n, double *par)
+ * weighted so each residual is in units of ln x (i.e. relative current, the contrast error).
+ * Judged against the pixel's noise and the model's misfit (lim, cal_residual.c), not a fixed
+ * residual: a healthy pixel is unfit only on evidence. */
+int wdr_cal_fit_polymap_pixel(const wdr_cal_result *res, const double *y, const double *target, const double *w, int n,
+                              const wdr_cal_residual_limit *lim, double *par, double *resid)
 {
     int nc = res->n_params;
     double a[WDR_CAL_MAX_LEVELS * WDR_CAL_MAX_COEFFS], t[WDR_CAL_MAX_LEVELS], rcond;
@@ -68,6 +70,8 @@ int wdr_cal_fit_polymap_pixel(const wdr_cal_result *res, const double *y, const 
         t[k] = target[k];
     }
     int st = wdr_lsq_solve(a, t, w, n, nc, par, &rcond);
+    if (resid)
+        *resid = INFINITY;
     if (st)
         return st;
     double ss = 0;
@@ -75,14 +79,23 @@ int wdr_cal_fit_polymap_pixel(const wdr_cal_result *res, const double *y, const 
         double r = (wdr_cal_poly_eval(par, nc, wdr_cal_poly_u(res, y[k])) - target[k]) * w[k];
         ss += r * r;
     }
-    if (!(sqrt(ss / n) <= res->cfg.max_residual))
+    double rms = sqrt(ss / n);
+    if (resid)
+        *resid = rms;
+    if (!(rms <= lim->limit))
         return WDR_FIT_RESIDUAL;
-    /* the map must keep the pixel's order of brightness across its calibrated span */
+    /* the map must keep the pixel's order of brightness across its calibrated span: a fall of the
+     * mapped code, in ln x at the nominal slope there, beyond the limit is a reversal; a smaller one
+     * is the noise the polynomial followed */
+    double v_max = -INFINITY;
     for (int s = 0; s <= 16; s++) {
-        double yy = y[n - 1] + (y[0] - y[n - 1]) * s / 16.0, u = wdr_cal_poly_u(res, yy), dv = 0, p = 1;
-        for (int j = 1; j < nc; j++, p *= u)
-            dv += j * par[j] * p;
-        if (!(dv > 0))
+        double v = wdr_cal_poly_eval(par, nc, wdr_cal_poly_u(res, y[n - 1] + (y[0] - y[n - 1]) * s / 16.0));
+        if (v > v_max) {
+            v_max = v;
+            continue;
+        }
+        double slope = wdr_nominal_log_slope(&res->nominal, wdr_nominal_invert(&res->nominal, v_max));
+        if (!((v_max - v) / fmax(slope, 1e-9) <= lim->limit))
             return WDR_FIT_REVERSED;
     }
     return WDR_FIT_OK;

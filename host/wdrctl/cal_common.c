@@ -27,12 +27,15 @@ const char *cal_form_name(int form)
 int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o)
 {
     int n_args;
-    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .frames_auto = 1, .adc = 1, .dac = 1, .sample = 256,
-                    .seed = 1, .out_scale = 1,
+    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .frames_auto = 1, .adc = 1, .dac = 1, .noise = -1,
+                    .sample = 256, .seed = 1, .out_scale = 1,
                     .form = -1};
     int rc = wdrctl_parse(cmd, argc, argv, o, &n_args);
     if (rc != EX_OK)
         return rc;
+    o->noise_asked = o->noise >= 0;
+    if (!o->noise_asked)
+        o->noise = CAL_NOISE_DEFAULT;
     if (o->frames_text && (o->frames_auto = !strcmp(o->frames_text, "auto")) == 0) {
         long long n = 0;
         if (cli_number_long(o->frames_text, 1, 4096, &n) != CLI_NUM_OK)
@@ -193,9 +196,14 @@ static int choose_frames(const cal_opts *o, const wdr_cal_levels *probe, cal_run
             "wdrctl: --frames auto: %d frames per level: the measured temporal noise is %.3g codes per frame at "
             "%.3g A, where the response has %.3g codes per unit ln I; %d frames bring it below %.3g codes (%s)",
             r->frames, r->why.sigma_codes, r->why.at_amps, r->why.slope, r->why.needed, r->why.want_codes, why);
-    if (r->why.capped)
-        fprintf(stderr, "; capped at %d frames, which leave %.3g codes", AUTO_FRAMES_MAX,
-                r->why.sigma_codes / sqrt((double)r->frames));
+    if (r->why.capped) { /* what the cap costs, in the contrast error it leaves at the level that decided */
+        double left = r->why.sigma_codes / sqrt((double)r->frames);
+        fprintf(stderr,
+                "; capped at %d frames, which leave %.3g codes: a %.2g %% contrast error from temporal noise "
+                "there, where %d frames would leave %.2g %%",
+                AUTO_FRAMES_MAX, left, 100 * left / r->why.slope, r->why.needed,
+                100 * r->why.want_codes / r->why.slope);
+    }
     fputc('\n', stderr);
     return EX_OK;
 }

@@ -279,7 +279,7 @@ static const cli_option calibrate_rows[] = {
     {"currents", 0, CLI_STRING, CAL_O(currents), "A,B,..", "the light levels, in A per pixel, rising"},
     {"levels-file", 0, CLI_STRING, CAL_O(levels_file), "FILE", "the light levels, one per line (# comments)"},
     {"select", 0, CLI_INT, CAL_O(select_n), "N", "choose N levels from a probe", .min = 2, .max = WDR_CAL_MAX_LEVELS - 1},
-    CAL_ROW_FRAMES, CAL_ROW_BOARD, CAL_ROW_OPERATOR, CAL_ROW_ADC, CAL_ROW_DAC,
+    CAL_ROW_FRAMES, CAL_ROW_BOARD, CAL_ROW_OPERATOR, CAL_ROW_ADC, CAL_ROW_DAC, CAL_ROW_NOISE,
     {"lut", 0, CLI_STRING, CAL_O(lut), "LUT.bin", "with --device: image with this LUT (stored with a margin)"},
     {"upload", 0, CLI_FLAG, CAL_O(upload), NULL, "with --device: store the table on the board and apply it"},
     CAL_ROW_OUT_SCALE,
@@ -293,6 +293,16 @@ const cli_command wdrctl_cmd_calibrate = {
     "--currents or --levels-file.",
     calibrate_rows, cmd_calibrate, CLI_CMD_BOARD};
 
+/* The simulated chip's conditions, as the verification figures hold with them. */
+static const char *sim_conditions(const cal_opts *o)
+{
+    static const char *names[2][2] = {
+        {"simulated chip: converters (partly) off, temporal noise off",
+         "simulated chip: converters (partly) off, temporal noise on"},
+        {"simulated chip: ADC and DAC on, temporal noise off", "simulated chip: ADC and DAC on, temporal noise on"}};
+    return names[o->adc && o->dac][o->noise != 0];
+}
+
 int cmd_calibrate(int argc, char **argv)
 {
     cal_opts o;
@@ -304,6 +314,11 @@ int cmd_calibrate(int argc, char **argv)
         return wdrctl_fail(EX_USAGE, "calibrate: give -o CAL.bin and/or --upload");
     if ((o.upload || o.lut) && !o.device)
         return wdrctl_fail(EX_USAGE, "calibrate: --upload and --lut need --device");
+    if (o.noise_asked && o.device)
+        return wdrctl_fail(EX_USAGE,
+                           "calibrate: option --noise sets the simulated chip's noise; the board at %s "
+                           "has its own (give --board to calibrate the simulator)",
+                           o.device);
     cal_run r = {0};
     wdr_cal_config_defaults(&r.cfg, model);
     if (o.form == WDR_FORM_MOEBIUS && model != WDR_MODEL_SIMPLE3)
@@ -344,8 +359,7 @@ int cmd_calibrate(int argc, char **argv)
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
     verify_ctx v = {.can_light = 1, .quantised = o.adc, .temporal = o.noise, .design = &c.design,
-                    .holds_with = o.adc && o.dac ? "simulated chip: ADC and DAC on, temporal noise off"
-                                                 : "simulated chip: converters (partly) off, temporal noise off"};
+                    .holds_with = sim_conditions(&o)};
     rc = verify_display(&o, &b, &v);
     if (rc == EX_OK)
         rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model, &v);

@@ -22,9 +22,11 @@ mutations=(
 "8@host/cal/cal_select.c@s/if (!(worst < best->worst_pct))/if (!(worst > best->worst_pct))/@selection: keeps the worst set of currents"
 "9@host/cal/cal_select.c@s/if (!(fabs(med\[idx\[j - 1\]\] - med\[idx\[j\]\]) > need))/if (!(fabs(med[idx[j - 1]] - med[idx[j]]) > -need))/@selection: levels closer than a DAC step + 3 sigma accepted"
 "10@host/cal/cal_table.c@s/flags\[i\] = res->flags\[i\];/flags[i] = 0;/;s/flags\[i\] |= flags\[i\] ? 0 : WDR_PIX_UNFIT;/flags[i] |= 0;/@table: no pixel marked bad in the table (none concealed)"
+"11@host/cal/cal_residual.c@s/lim->limit = res->cfg.tie_sigmas \* lim->noise_ln + lim->misfit;/lim->limit = 0.05;/@fit: lsq/polymap residual against a fixed 5 % (the old rule)"
+"12@host/cal/cal_residual.c@s/lim->limit = res->cfg.tie_sigmas \* lim->noise_ln + lim->misfit;/lim->limit = INFINITY;/@fit: lsq/polymap accept any residual"
 )
-tests='^(test_torture|test_cal_maths|test_cal_defects|test_cal_sim)$'
-targets="test_torture test_cal_maths test_cal_defects test_cal_sim"
+tests='^(test_torture|test_cal_maths|test_cal_defects|test_cal_flags_curve|test_cal_sim)$'
+targets="test_torture test_cal_maths test_cal_defects test_cal_flags_curve test_cal_sim"
 
 mkdir -p "$work/src"
 git ls-files -z | xargs -0 cp --parents -t "$work/src"   # the sources as committed
