@@ -192,6 +192,11 @@ static int choose_frames(const cal_opts *o, const wdr_cal_levels *probe, cal_run
     const char *why = r->why.want_codes > AUTO_FRAMES_TARGET_PCT / 100 * r->why.slope + 1e-12
                           ? "half the ADC quantisation floor"
                           : "a 0.5 % contrast error, half the eye's 1 % threshold";
+    if (!(r->why.sigma_codes > 0)) { /* a noiseless source: every frame the same, more buy nothing */
+        fprintf(stderr, "wdrctl: --frames auto: %d frames per level: the probe's frames agree exactly (no temporal "
+                        "noise measured), so more frames would average nothing\n", r->frames);
+        return EX_OK;
+    }
     fprintf(stderr,
             "wdrctl: --frames auto: %d frames per level: the measured temporal noise is %.3g codes per frame at "
             "%.3g A, where the response has %.3g codes per unit ln I; %d frames bring it below %.3g codes (%s)",
