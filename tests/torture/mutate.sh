@@ -24,9 +24,11 @@ mutations=(
 "10@host/cal/cal_table.c@s/flags\[i\] = res->flags\[i\];/flags[i] = 0;/;s/flags\[i\] |= flags\[i\] ? 0 : WDR_PIX_UNFIT;/flags[i] |= 0;/@table: no pixel marked bad in the table (none concealed)"
 "11@host/cal/cal_residual.c@s/lim->limit = res->cfg.tie_sigmas \* lim->noise_ln + lim->misfit;/lim->limit = 0.05;/@fit: lsq/polymap residual against a fixed 5 % (the old rule)"
 "12@host/cal/cal_residual.c@s/lim->limit = res->cfg.tie_sigmas \* lim->noise_ln + lim->misfit;/lim->limit = INFINITY;/@fit: lsq/polymap accept any residual"
+"13@host/cal/cal_model.c@s/#define GN_MAX_STEPS 50/#define GN_MAX_STEPS 0/@fit: paper models' least squares takes no Gauss-Newton step"
+"14@host/cal/cal_basis.c@s/#define DENSE_CODES 256 /#define DENSE_CODES 0 /;s/#define SMOOTH_PENALTY 1e-6/#define SMOOTH_PENALTY 1e-4/@table: basis learnt from log-spaced currents only (the old learner)"
 )
-tests='^(test_torture|test_cal_maths|test_cal_defects|test_cal_flags_curve|test_cal_sim)$'
-targets="test_torture test_cal_maths test_cal_defects test_cal_flags_curve test_cal_sim"
+tests='^(test_torture|test_cal_maths|test_cal_defects|test_cal_flags_curve|test_cal_sim|test_cal_paper_lsq|test_cal_endslope)$'
+targets="test_torture test_cal_maths test_cal_defects test_cal_flags_curve test_cal_sim test_cal_paper_lsq test_cal_endslope"
 
 mkdir -p "$work/src"
 git ls-files -z | xargs -0 cp --parents -t "$work/src"   # the sources as committed
