@@ -346,8 +346,7 @@ static int knob_acts(const study_point *p, int d)
     case D_ENT: return p->timing == WDR_TIMING_UNIFORM;
     case D_HZ: return p->timing == WDR_TIMING_STAMPED;
     case D_NC: return p->form != WDR_FORM_MOEBIUS;
-    case D_LEV: return 1; /* the paper models too: 3 or 4 levels exact, more least squares */
-    default: return 1;
+    default: return 1; /* D_LEV too: the paper models take 3 or 4 levels exact, more by least squares */
     }
 }
 
