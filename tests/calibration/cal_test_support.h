@@ -50,4 +50,18 @@ static inline long kernel_sweep_bad(const wdr_cal_view *v)
     return bad;
 }
 
+/* Plant ppm of each defect kind (dead, hot, stuck, saturated) at seeded positions, plus one of each
+ * at the four corners, where neighbour-based code is weakest. @retval the simulator's status */
+static inline int plant_defects(wdr_sim *sim, int width, int height, double ppm)
+{
+    long np = (long)width * height, corner[4] = {0, np - 1, (long)(height - 1) * width, width - 1};
+    uint8_t kind[4] = {WDR_DEFECT_DEAD, WDR_DEFECT_HOT, WDR_DEFECT_STUCK, WDR_DEFECT_SATURATED};
+    wdr_sim_defects d = {.ppm = {0, ppm, ppm, ppm, ppm},
+                         .seed = 99,
+                         .n_listed = 4,
+                         .listed_index = corner,
+                         .listed_kind = kind};
+    return wdr_sim_set_defects(sim, &d);
+}
+
 #endif

@@ -31,18 +31,6 @@ typedef struct run {
 
 static int vga; /* argument "vga": the full board size */
 
-static void plant(wdr_sim *sim, const wdr_board *b)
-{
-    long corner[4] = {0, (long)b->width * b->height - 1, (long)(b->height - 1) * b->width, b->width - 1};
-    uint8_t kind[4] = {WDR_DEFECT_DEAD, WDR_DEFECT_HOT, WDR_DEFECT_STUCK, WDR_DEFECT_SATURATED};
-    wdr_sim_defects d = {.ppm = {0, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM},
-                         .seed = 99,
-                         .n_listed = 4,
-                         .listed_index = corner,
-                         .listed_kind = kind};
-    assert_int_equal(wdr_sim_set_defects(sim, &d), WDR_OK);
-}
-
 static void calibrate_default(wdr_sim *sim, const wdr_board *b, wdr_cal_result *res, int *frames)
 {
     wdr_cal_simsrc ss = {sim, 1, 1000};
@@ -91,7 +79,7 @@ static run run_chip(int with_defects)
     for (int k = 0; k < 3; k++)
         wdr_sim_set_effect(sim, temporal[k], WDR_FX_ON);
     if (with_defects)
-        plant(sim, &b);
+        assert_int_equal(plant_defects(sim, b.width, b.height, DEFECT_PPM), WDR_OK);
     run r = {.np = (long)b.width * b.height};
     uint8_t *truth = malloc((size_t)r.np);
     wdr_sim_defect_map(sim, truth);

@@ -52,16 +52,8 @@ static void chip_open(chip *c, int with_defects)
     static const int temporal[] = {WDR_FX_SHOT, WDR_FX_KTC, WDR_FX_READ};
     for (int k = 0; k < 3; k++)
         wdr_sim_set_effect(c->sim, temporal[k], WDR_FX_ON);
-    if (with_defects) {
-        long np = (long)WIDTH * HEIGHT, corner[4] = {0, np - 1, (long)(HEIGHT - 1) * WIDTH, WIDTH - 1};
-        uint8_t kind[4] = {WDR_DEFECT_DEAD, WDR_DEFECT_HOT, WDR_DEFECT_STUCK, WDR_DEFECT_SATURATED};
-        wdr_sim_defects d = {.ppm = {0, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM, DEFECT_PPM},
-                             .seed = 99,
-                             .n_listed = 4,
-                             .listed_index = corner,
-                             .listed_kind = kind};
-        assert_int_equal(wdr_sim_set_defects(c->sim, &d), WDR_OK);
-    }
+    if (with_defects)
+        assert_int_equal(plant_defects(c->sim, WIDTH, HEIGHT, DEFECT_PPM), WDR_OK);
     c->truth = malloc((size_t)WIDTH * HEIGHT);
     wdr_sim_defect_map(c->sim, c->truth);
     int middle_row = HEIGHT / 2; /* read at the middle row, as wdrctl's design */
