@@ -3,6 +3,7 @@
 #include "crc32.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
+#include <stdbool.h>
 #include <string.h>
 
 /* ---- Framing ----------------------------------------------------------------------------- */
@@ -145,7 +146,8 @@ const char *wdr_status_name(int status)
     static const char *const names[] = {
         "ok", "busy", "bad CRC", "bad sequence", "too large", "bad geometry", "no table",
         "unsupported", "bad kind", "bad length", "bad version", "truncated", "bad table",
-        "bad argument", "flash error",
+        "bad argument", "flash error", "bad signature", "untrusted key", "downgrade refused",
+        "bad image hash", "image for another board", "bad state", "bad image",
     };
     if (status < 0 || status >= (int)(sizeof names / sizeof names[0]))
         return "unknown status";
@@ -168,6 +170,12 @@ int wdr_status_from_err(int err)
     case WDR_E_UNSUPPORTED: return WDR_ST_UNSUPPORTED;
     case WDR_E_IO: case WDR_E_POWER: return WDR_ST_FLASH;
     case WDR_E_INVAL: case WDR_E_NUMERIC: return WDR_ST_BAD_TABLE;
+    case WDR_E_SIGNATURE: return WDR_ST_BAD_SIGNATURE;
+    case WDR_E_KEY: return WDR_ST_BAD_KEY;
+    case WDR_E_DOWNGRADE: return WDR_ST_DOWNGRADE;
+    case WDR_E_HASH: return WDR_ST_BAD_HASH;
+    case WDR_E_BOARD: return WDR_ST_BAD_BOARD;
+    case WDR_E_STATE: return WDR_ST_BAD_STATE;
     default: return WDR_ST_BAD_ARG;
     }
 }
@@ -203,11 +211,15 @@ void wdr_info_pack(const wdr_info *in, uint8_t *out)
     wdr_put_u32(out + 32, in->row_time_ns);
     memcpy(out + 36, in->name, sizeof in->name);
     out[36 + sizeof in->name - 1] = 0;
+    wdr_put_u16(out + 68, in->fw_patch);
+    out[70] = in->fw_slot;
+    out[71] = in->fw_flags;
+    wdr_put_u32(out + 72, in->fw_build);
 }
 
 int wdr_info_unpack(const uint8_t *p, size_t len, wdr_info *out)
 {
-    if (len < WDR_INFO_SIZE)
+    if (len < WDR_INFO_SIZE_1_3)
         return WDR_E_TRUNCATED;
     out->proto_major = wdr_get_u16(p + 0);
     out->proto_minor = wdr_get_u16(p + 2);
@@ -225,6 +237,11 @@ int wdr_info_unpack(const uint8_t *p, size_t len, wdr_info *out)
     out->row_time_ns = wdr_get_u32(p + 32);
     memcpy(out->name, p + 36, sizeof out->name);
     out->name[sizeof out->name - 1] = 0;
+    bool has_image = len >= WDR_INFO_SIZE;
+    out->fw_patch = has_image ? wdr_get_u16(p + 68) : 0;
+    out->fw_slot = has_image ? p[70] : WDR_SLOT_NONE;
+    out->fw_flags = has_image ? p[71] : 0;
+    out->fw_build = has_image ? wdr_get_u32(p + 72) : 0;
     return WDR_OK;
 }
 
@@ -317,5 +334,71 @@ int wdr_frame_end_unpack(const uint8_t *p, size_t len, wdr_frame_end *out)
     out->flags = wdr_get_u16(p + 6);
     out->integration_ns = wdr_get_u32(p + 8);
     out->t_start_ns = get_u64(p + 12);
+    return WDR_OK;
+}
+
+/* ---- Firmware status (1.4) ------------------------------------------------------------------- */
+
+static void fw_slot_pack(const wdr_fw_slot_report *s, uint8_t *out)
+{
+    out[0] = s->state;
+    out[1] = s->attempts;
+    out[2] = s->reject_reason;
+    out[3] = (uint8_t)s->verify_err;
+    out[4] = s->ver_major;
+    out[5] = s->ver_minor;
+    wdr_put_u16(out + 6, s->ver_patch);
+    wdr_put_u32(out + 8, s->ver_build);
+    wdr_put_u32(out + 12, s->security_counter);
+    wdr_put_u32(out + 16, s->image_size);
+    memcpy(out + 20, s->sha256, sizeof s->sha256);
+    memset(out + 52, 0, WDR_FW_SLOT_REPORT_SIZE - 52);
+}
+
+static void fw_slot_unpack(const uint8_t *p, wdr_fw_slot_report *s)
+{
+    s->state = p[0];
+    s->attempts = p[1];
+    s->reject_reason = p[2];
+    s->verify_err = (int8_t)p[3];
+    s->ver_major = p[4];
+    s->ver_minor = p[5];
+    s->ver_patch = wdr_get_u16(p + 6);
+    s->ver_build = wdr_get_u32(p + 8);
+    s->security_counter = wdr_get_u32(p + 12);
+    s->image_size = wdr_get_u32(p + 16);
+    memcpy(s->sha256, p + 20, sizeof s->sha256);
+}
+
+void wdr_fw_status_pack(const wdr_fw_status_report *in, uint8_t *out)
+{
+    out[0] = in->running;
+    out[1] = in->reset_cause;
+    out[2] = in->flags;
+    out[3] = in->max_attempts;
+    wdr_put_u32(out + 4, in->fault_pc);
+    wdr_put_u32(out + 8, in->fault_status);
+    wdr_put_u32(out + 12, in->floor);
+    wdr_put_u32(out + 16, in->boots);
+    memcpy(out + 20, in->key_hash, sizeof in->key_hash);
+    for (int i = 0; i < 2; i++)
+        fw_slot_pack(&in->slot[i], out + 24 + i * WDR_FW_SLOT_REPORT_SIZE);
+}
+
+int wdr_fw_status_unpack(const uint8_t *p, size_t len, wdr_fw_status_report *out)
+{
+    if (len < WDR_FW_STATUS_SIZE)
+        return WDR_E_TRUNCATED;
+    out->running = p[0];
+    out->reset_cause = p[1];
+    out->flags = p[2];
+    out->max_attempts = p[3];
+    out->fault_pc = wdr_get_u32(p + 4);
+    out->fault_status = wdr_get_u32(p + 8);
+    out->floor = wdr_get_u32(p + 12);
+    out->boots = wdr_get_u32(p + 16);
+    memcpy(out->key_hash, p + 20, sizeof out->key_hash);
+    for (int i = 0; i < 2; i++)
+        fw_slot_unpack(p + 24 + i * WDR_FW_SLOT_REPORT_SIZE, &out->slot[i]);
     return WDR_OK;
 }

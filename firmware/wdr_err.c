@@ -21,6 +21,12 @@ const char *wdr_strerror(int err)
     case WDR_E_UNREALISABLE: return "not realisable as a ramp";
     case WDR_E_NOMEM: return "out of memory";
     case WDR_E_POWER: return "power lost";
+    case WDR_E_SIGNATURE: return "signature does not verify";
+    case WDR_E_KEY: return "signed by a key this board does not trust";
+    case WDR_E_DOWNGRADE: return "security counter below the board's floor (downgrade)";
+    case WDR_E_HASH: return "image hash does not match";
+    case WDR_E_BOARD: return "image for another board";
+    case WDR_E_STATE: return "not allowed in this state";
     case WDR_E_ABSENT: return "no board there";
     case WDR_E_DENIED: return "permission denied";
     case WDR_E_STATUS: return "refused by the board";

@@ -21,6 +21,13 @@ enum wdr_err {
     WDR_E_UNREALISABLE = -15, /* operator cannot be realised as a ramp */
     WDR_E_NOMEM = -16,     /* host-side allocation failed */
     WDR_E_POWER = -17,     /* simulated power cut */
+    /* firmware images (firmware/boot) */
+    WDR_E_SIGNATURE = -18, /* the image's signature does not verify */
+    WDR_E_KEY = -19,       /* the image is signed by a key this board does not trust */
+    WDR_E_DOWNGRADE = -20, /* the image's security counter is below the board's floor */
+    WDR_E_HASH = -21,      /* the image's SHA-256 differs from its trailer's */
+    WDR_E_BOARD = -22,     /* the image is for another board */
+    WDR_E_STATE = -23,     /* not allowed in this state (confirm with nothing to confirm, ...) */
     /* host-only outcomes of reaching a board (host/lib/transport*) */
     WDR_E_ABSENT = -64,    /* no board at that address (no socket, no listener, no USB device) */
     WDR_E_DENIED = -65,    /* the OS refused access (USB permissions: install the udev rule) */

@@ -12,8 +12,9 @@
 #include <stdint.h>
 
 #define WDR_PROTO_VERSION_MAJOR 1
-#define WDR_PROTO_VERSION_MINOR 3 /* 1.1: SET_EXPOSURE, exposure fields in STATUS; 1.2: INFO flags, new session;
-                                   1.3: CAPTURE takes WDR_CAPTURE_RAW */
+#define WDR_PROTO_VERSION_MINOR 4 /* 1.1: SET_EXPOSURE, exposure fields in STATUS; 1.2: INFO flags, new session;
+                                   1.3: CAPTURE takes WDR_CAPTURE_RAW; 1.4: firmware update (FW_*, REBOOT),
+                                   INFO's image version */
 
 #define WDR_PROTO_SYNC0 0x57u /* 'W' */
 #define WDR_PROTO_SYNC1 0x44u /* 'D' */
@@ -41,6 +42,13 @@ enum wdr_cmd {
     WDR_CMD_STREAM = 0x32,          /* 1: capture frames until 0 */
     WDR_CMD_ABORT = 0x33,           /* stop a capture or stream, drop an upload */
     WDR_CMD_SET_EXPOSURE = 0x34,    /* u8 0: the LUT's own tick, 1: auto exposure */
+    WDR_CMD_FW_BEGIN = 0x50,        /* 1.4: start an image upload into the slot not running */
+    WDR_CMD_FW_CHUNK = 0x51,
+    WDR_CMD_FW_COMMIT = 0x52,       /* verify (hash, key, signature, board, counter), mark pending */
+    WDR_CMD_FW_STATUS = 0x53,       /* both slots, the running one, the last reset's cause */
+    WDR_CMD_FW_CONFIRM = 0x54,      /* the running test image stays */
+    WDR_CMD_FW_REVERT = 0x55,       /* give up the running image; the next boot runs the other */
+    WDR_CMD_REBOOT = 0x56,          /* answer, then reset */
     WDR_CMD_SIM_SET_ILLUMINANT = 0x70, /* simulation only: uniform photocurrent */
     WDR_CMD_ROW = 0x40,             /* board -> host, unsolicited: one corrected row */
     WDR_CMD_FRAME_END = 0x41        /* board -> host, unsolicited: a frame is complete */
@@ -67,10 +75,18 @@ enum wdr_status {
     WDR_ST_TRUNCATED = 11,    /* commit before all declared bytes arrived */
     WDR_ST_BAD_TABLE = 12,    /* table content fails its format's checks */
     WDR_ST_BAD_ARG = 13,      /* a field out of range */
-    WDR_ST_FLASH = 14         /* flash refused an operation */
+    WDR_ST_FLASH = 14,        /* flash refused an operation */
+    /* 1.4: firmware images */
+    WDR_ST_BAD_SIGNATURE = 15, /* the image's signature does not verify */
+    WDR_ST_BAD_KEY = 16,      /* signed by a key the board does not trust */
+    WDR_ST_DOWNGRADE = 17,    /* security counter below the board's floor */
+    WDR_ST_BAD_HASH = 18,     /* SHA-256 of the image differs from its trailer */
+    WDR_ST_BAD_BOARD = 19,    /* image for another board */
+    WDR_ST_BAD_STATE = 20,    /* not now: upload while a test image runs, confirm with nothing to confirm, ... */
+    WDR_ST_BAD_IMAGE = 21     /* image structure (header, trailer, sizes) out of range */
 };
 
-enum wdr_table_kind { WDR_KIND_LUT = 1, WDR_KIND_CAL = 2 };
+enum wdr_table_kind { WDR_KIND_LUT = 1, WDR_KIND_CAL = 2, WDR_KIND_FW = 3 /* STATUS upload_kind only */ };
 
 typedef struct wdr_proto_header {
     uint8_t opcode;      /* enum wdr_cmd */
@@ -134,7 +150,8 @@ int wdr_status_from_err(int err);
 #define WDR_BEGIN_SIZE 8u        /* total_len u32, crc32 u32 of the whole table */
 #define WDR_CHUNK_OFFSET_SIZE 4u /* offset u32, then 1..WDR_PROTO_CHUNK_DATA_MAX table bytes */
 #define WDR_COMMIT_REPLY_SIZE 12u
-#define WDR_INFO_SIZE 68u
+#define WDR_INFO_SIZE 76u        /* 1.4: image patch and build appended */
+#define WDR_INFO_SIZE_1_3 68u
 #define WDR_STATUS_SIZE 68u
 #define WDR_STATUS_SIZE_1_0 52u /* what a 1.0 board sends: the exposure fields read as 0 */
 #define WDR_FRAME_END_SIZE 20u
@@ -157,6 +174,12 @@ typedef struct wdr_info {
     uint32_t cal_capacity;      /* largest calibration table a slot holds, bytes */
     uint32_t row_time_ns;
     char name[32];              /* NUL-terminated */
+    /* 1.4: fw_major.fw_minor.fw_patch+fw_build is the running image's version (0 build and
+     * the built-in constants when the board did not boot a signed image) */
+    uint16_t fw_patch;
+    uint8_t fw_slot;            /* slot running, WDR_SLOT_NONE: not booted from a slot */
+    uint8_t fw_flags;           /* bit 0: test boot (unconfirmed) */
+    uint32_t fw_build;
 } wdr_info;
 
 typedef struct wdr_status_report {
@@ -195,7 +218,8 @@ typedef struct wdr_frame_end {
 } wdr_frame_end;
 
 void wdr_info_pack(const wdr_info *in, uint8_t *out);
-/* @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_INFO_SIZE */
+/* @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_INFO_SIZE_1_3 (a 1.3 board: image fields 0,
+ * fw_slot WDR_SLOT_NONE) */
 int wdr_info_unpack(const uint8_t *p, size_t len, wdr_info *out);
 void wdr_status_pack(const wdr_status_report *in, uint8_t *out);
 /* @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_STATUS_SIZE_1_0 (a 1.0 report: exposure fields 0) */
@@ -206,5 +230,46 @@ int wdr_commit_unpack(const uint8_t *p, size_t len, wdr_commit_reply *out);
 void wdr_frame_end_pack(const wdr_frame_end *in, uint8_t *out);
 /* @retval WDR_OK  @retval WDR_E_TRUNCATED */
 int wdr_frame_end_unpack(const uint8_t *p, size_t len, wdr_frame_end *out);
+
+/* ---- Firmware update (1.4) ------------------------------------------------------------------
+ * FW_BEGIN: as LUT_BEGIN (u32 whole-image length, u32 CRC-32). FW_CHUNK: as LUT_CHUNK.
+ * FW_COMMIT: no payload; answers u8 slot, 3 reserved, then the 64-byte image header on OK.
+ * FW_STATUS: no payload; answers wdr_fw_status_report. CONFIRM, REVERT, REBOOT: no payload. */
+#define WDR_FW_COMMIT_REPLY_SIZE 68u
+#define WDR_FW_SLOT_REPORT_SIZE 56u
+#define WDR_FW_STATUS_SIZE (24u + 2u * WDR_FW_SLOT_REPORT_SIZE)
+#define WDR_FW_STATUS_F_DEV_KEY 0x1u   /* the board trusts the development key: not for production */
+#define WDR_FW_STATUS_F_TESTING 0x2u   /* the running image is a test boot */
+#define WDR_FW_STATUS_F_NO_BOOT 0x4u   /* not booted by the bootloader (no image flash, or a debug load) */
+
+typedef struct wdr_fw_slot_report {
+    uint8_t state;              /* enum wdr_slot_state (firmware/boot/wdr_boot.h) */
+    uint8_t attempts;           /* test boots so far */
+    uint8_t reject_reason;      /* enum wdr_boot_reject when rejected */
+    int8_t verify_err;          /* enum wdr_err of its verification, 0: verified */
+    uint8_t ver_major, ver_minor;
+    uint16_t ver_patch;
+    uint32_t ver_build;
+    uint32_t security_counter;
+    uint32_t image_size;        /* application bytes */
+    uint8_t sha256[32];         /* from its trailer (zero when none parsed) */
+} wdr_fw_slot_report;
+
+typedef struct wdr_fw_status_report {
+    uint8_t running;            /* slot running, or WDR_SLOT_NONE */
+    uint8_t reset_cause;        /* enum wdr_reset_cause of the last reset */
+    uint8_t flags;              /* WDR_FW_STATUS_F_* */
+    uint8_t max_attempts;       /* test boots before a revert */
+    uint32_t fault_pc;          /* last reset a fault: where */
+    uint32_t fault_status;      /* last reset a fault: CFSR */
+    uint32_t floor;             /* security counter floor */
+    uint32_t boots;             /* resets since power-on */
+    uint8_t key_hash[4];        /* first bytes of the trusted key's SHA-256 */
+    wdr_fw_slot_report slot[2];
+} wdr_fw_status_report;
+
+void wdr_fw_status_pack(const wdr_fw_status_report *in, uint8_t *out);
+/* @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_FW_STATUS_SIZE */
+int wdr_fw_status_unpack(const uint8_t *p, size_t len, wdr_fw_status_report *out);
 
 #endif

@@ -139,6 +139,32 @@ int hal_usb_read(uint8_t *buf, size_t cap);
  * @retval WDR_E_IO  no host connected */
 int hal_usb_write(const uint8_t *buf, size_t len);
 
+/* ---- Firmware images, boot record, reset, watchdog (SPEC.md, "Image flash and boot") -------- */
+
+/* Geometry of the image flash: the floor log and the two image slots the bootloader reads,
+ * kept to the same NOR rules as the table flash, and separate from it.
+ * @retval WDR_OK  @retval WDR_E_UNSUPPORTED this board has no bootloader (hal/template, linux) */
+int hal_image_flash_geometry_get(hal_flash_geometry *g);
+
+/* As hal_flash_read/erase/prog, on the image flash.
+ * @retval WDR_OK  @retval WDR_E_INVAL  @retval WDR_E_IO  @retval WDR_E_POWER  @retval WDR_E_UNSUPPORTED */
+int hal_image_flash_read(uint32_t addr, void *buf, uint32_t len);
+int hal_image_flash_erase(uint32_t block);
+int hal_image_flash_prog(uint32_t addr, const void *buf, uint32_t len);
+
+/* What the bootloader passed to this boot (slot, test boot, last reset's cause, header).
+ * @retval WDR_OK  @retval WDR_E_UNSUPPORTED not started by a bootloader (no record, or a bad CRC) */
+struct wdr_boot_record;
+int hal_boot_record_get(struct wdr_boot_record *out);
+
+/* Reset the board with this cause (enum wdr_reset_cause), kept for the next boot's record.
+ * Real boards never return; the simulated board returns and reboots when the firmware's task
+ * function returns. */
+void hal_reset(uint8_t cause);
+
+/* Restart the watchdog's count; the firmware's task loop calls it. A board without one ignores it. */
+void hal_watchdog_feed(void);
+
 /* ---- Simulation hooks (real boards return WDR_E_UNSUPPORTED) ------------------------------ */
 
 /* Light every pixel with the same photocurrent, in amperes (caps has HAL_CAP_ILLUMINANT).

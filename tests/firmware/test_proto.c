@@ -194,14 +194,14 @@ static void payload_records_round_trip(void **state)
 {
     (void)state;
     uint8_t buf[128];
-    wdr_info in = {1, 0, 1, 0, 0xdeadbeef, 640, 480, 12, 12, 1, 4128, 65600, 999999, 20000, "sim-vga"}, io;
+    wdr_info in = {1, 0, 1, 0, 0xdeadbeef, 640, 480, 12, 12, 1, 4128, 65600, 999999, 20000, "sim-vga", 7, 1, 1, 42}, io;
     wdr_info_pack(&in, buf);
     assert_int_equal(wdr_info_unpack(buf, WDR_INFO_SIZE, &io), WDR_OK);
     assert_memory_equal(&in.sensor_id, &io.sensor_id, sizeof in.sensor_id);
     assert_int_equal(io.width, 640);
     assert_int_equal(io.cal_capacity, 999999);
     assert_string_equal(io.name, "sim-vga");
-    assert_int_equal(wdr_info_unpack(buf, WDR_INFO_SIZE - 1, &io), WDR_E_TRUNCATED);
+    assert_int_equal(wdr_info_unpack(buf, WDR_INFO_SIZE_1_3 - 1, &io), WDR_E_TRUNCATED);
 
     wdr_status_report s = {3, 1, 0xff, 2, 5, 6, 7, 8, 9, 10, 11, 12, 0x123456789abcull, 13, 14, 0, 0, 0, 0, 0}, so;
     wdr_status_pack(&s, buf);
