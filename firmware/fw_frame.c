@@ -37,7 +37,7 @@ int wdr_fw_set_integration(wdr_fw *fw, uint32_t ns)
 {
     if (fw->lut_slot < 0)
         return WDR_E_NO_TABLE;
-    if (ns && ns_to_ticks(&fw->lut, ns) <= last_step_ticks(&fw->lut))
+    if (ns > WDR_PROTO_MAX_INTEGRATION_NS || (ns && ns_to_ticks(&fw->lut, ns) <= last_step_ticks(&fw->lut)))
         return WDR_E_INVAL;
     fw->integration_ns = ns;
     return WDR_OK;

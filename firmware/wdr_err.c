@@ -31,6 +31,7 @@ const char *wdr_strerror(int err)
     case WDR_E_DENIED: return "permission denied";
     case WDR_E_STATUS: return "refused by the board";
     case WDR_E_PROTOCOL: return "protocol violation";
+    case WDR_E_FRAME: return "incomplete frame";
     default: return "unknown error";
     }
 }

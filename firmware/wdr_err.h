@@ -32,7 +32,8 @@ enum wdr_err {
     WDR_E_ABSENT = -64,    /* no board at that address (no socket, no listener, no USB device) */
     WDR_E_DENIED = -65,    /* the OS refused access (USB permissions: install the udev rule) */
     WDR_E_STATUS = -66,    /* the board answered with a non-OK status */
-    WDR_E_PROTOCOL = -67   /* the board answered something the protocol does not allow */
+    WDR_E_PROTOCOL = -67,  /* the board answered something the protocol does not allow */
+    WDR_E_FRAME = -68      /* a frame whose rows did not each arrive once (duplicate, missing, out of range) */
 };
 
 /* Short English name of an error code, for messages. */

@@ -25,6 +25,13 @@
 #define WDR_PROTO_ROW_HEADER 8u                         /* frame u32, row u16, width u16 */
 #define WDR_PROTO_MAX_ROW_WIDTH ((WDR_PROTO_MAX_PAYLOAD - WDR_PROTO_ROW_HEADER) / 2u)
 
+/* Limits of the INFO and STATUS fields a host sizes its buffers and waits with (SPEC.md, "Field
+ * limits"): a board outside them is refused at connect, before it costs memory or time. */
+#define WDR_PROTO_MAX_HEIGHT 8192u                 /* rows of a sensor (width: WDR_PROTO_MAX_ROW_WIDTH) */
+#define WDR_PROTO_MAX_ROW_TIME_NS 10000000u        /* 10 ms a row */
+#define WDR_PROTO_MAX_READOUT_NS 10000000000ull    /* height x row time: 10 s a frame's readout */
+#define WDR_PROTO_MAX_INTEGRATION_NS 4000000000u   /* 4 s; SET_INTEGRATION refuses more (BAD_ARG) */
+
 /* Opcodes. Requests go host -> board and get exactly one response with the same opcode,
  * the same seq and WDR_FLAG_RESPONSE. Never renumber. */
 enum wdr_cmd {

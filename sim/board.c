@@ -128,7 +128,7 @@ static const field board_fields[] = {
     FD("adc", "v_hi_V", adc_hi_v, -20, 20),
     FD("adc", "offset_V", adc_offset_v, -5, 5),
     FD("adc", "gain", adc_gain, 0.01, 100),
-    FD("readout", "row_time_s", row_time_s, 0, 1),
+    FD("readout", "row_time_s", row_time_s, 0, 0.01), /* the protocol's limit (SPEC.md, field limits) */
 };
 #define N_FIELDS (sizeof board_fields / sizeof board_fields[0])
 

@@ -15,6 +15,11 @@ int64_t wdr_transport_now_ms(void)
 
 int wdr_transport_open(const char *address, wdr_transport **out, char *err, int errlen)
 {
+    return wdr_transport_open_within(address, WDR_TRANSPORT_CONNECT_MS, out, err, errlen);
+}
+
+int wdr_transport_open_within(const char *address, int timeout_ms, wdr_transport **out, char *err, int errlen)
+{
     *out = NULL;
     if (!address || !*address) {
         snprintf(err, (size_t)errlen, "no device given: use --device sim:/path.sock, usb[:BUS-ADDR], serial:/dev/tty[@BAUD], "
@@ -22,7 +27,7 @@ int wdr_transport_open(const char *address, wdr_transport **out, char *err, int 
         return WDR_E_INVAL;
     }
     if (!strncmp(address, "sim:", 4))
-        return wdr_transport_open_socket(address + 4, out, err, errlen);
+        return wdr_transport_open_socket(address + 4, timeout_ms, out, err, errlen);
     if (!strcmp(address, "usb"))
         return wdr_transport_open_usb(NULL, out, err, errlen);
     if (!strncmp(address, "usb:", 4))
@@ -30,9 +35,9 @@ int wdr_transport_open(const char *address, wdr_transport **out, char *err, int 
     if (!strncmp(address, "serial:", 7))
         return wdr_transport_open_serial(address + 7, out, err, errlen);
     if (!strncmp(address, "unix:", 5))
-        return wdr_transport_open_unix(address + 5, out, err, errlen);
+        return wdr_transport_open_unix(address + 5, timeout_ms, out, err, errlen);
     if (!strncmp(address, "tcp:", 4))
-        return wdr_transport_open_tcp(address + 4, out, err, errlen);
+        return wdr_transport_open_tcp(address + 4, timeout_ms, out, err, errlen);
     snprintf(err, (size_t)errlen,
              "bad device address '%s': expected sim:/path.sock, usb[:BUS-ADDR], serial:/dev/tty[@BAUD], "
              "unix:/path or tcp:HOST:PORT", address);

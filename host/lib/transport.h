@@ -46,6 +46,12 @@ struct wdr_transport {
  * @retval WDR_E_NOMEM */
 int wdr_transport_open(const char *address, wdr_transport **out, char *err, int errlen);
 
+/* The same, giving up a connect that is not accepted within timeout_ms (a socket whose listener
+ * never accepts: its queue is full). wdr_transport_open waits WDR_TRANSPORT_CONNECT_MS.
+ * @retval as wdr_transport_open; WDR_E_TIMEOUT  the connection was not accepted in time */
+int wdr_transport_open_within(const char *address, int timeout_ms, wdr_transport **out, char *err, int errlen);
+#define WDR_TRANSPORT_CONNECT_MS 2000
+
 /* Wrap a connected stream socket (e.g. one end of a socketpair, for tests); takes ownership.
  * @retval WDR_OK, WDR_E_INVAL (fd < 0), WDR_E_NOMEM */
 int wdr_transport_from_fd(int fd, const char *name, wdr_transport **out);
@@ -88,12 +94,15 @@ int wdr_transport_list_usb(wdr_usb_board *out, int max, char *err, int errlen);
 int64_t wdr_transport_now_ms(void);
 
 /* Backends (transport_socket.c, transport_usb.c); use wdr_transport_open instead. */
-int wdr_transport_open_socket(const char *path, wdr_transport **out, char *err, int errlen);
+int wdr_transport_open_socket(const char *path, int timeout_ms, wdr_transport **out, char *err, int errlen);
 int wdr_transport_open_usb(const char *bus_addr, wdr_transport **out, char *err, int errlen);
 /* Byte streams (transport_serial.c): "PATH[@BAUD]" a tty in raw 8N1 (default 115200 baud);
  * a unix socket path or "HOST:PORT" to an emulated board's UART (QEMU -serial ...,server). */
 int wdr_transport_open_serial(const char *spec, wdr_transport **out, char *err, int errlen);
-int wdr_transport_open_unix(const char *path, wdr_transport **out, char *err, int errlen);
-int wdr_transport_open_tcp(const char *spec, wdr_transport **out, char *err, int errlen);
+int wdr_transport_open_unix(const char *path, int timeout_ms, wdr_transport **out, char *err, int errlen);
+int wdr_transport_open_tcp(const char *spec, int timeout_ms, wdr_transport **out, char *err, int errlen);
+/* connect() of a socket fd within timeout_ms (transport_connect.c); the fd is left non-blocking.
+ * @return 0, or an errno value (ETIMEDOUT: not accepted in time) */
+int wdr_socket_connect(int fd, const void *addr, unsigned addr_len, int timeout_ms);
 
 #endif

@@ -81,8 +81,12 @@ enum { GOT_RESPONSE = 1, RETRY = 2 };
 static int on_result(wdr_client *c, int r, const wdr_packet *p, uint8_t opcode)
 {
     int ours = (p->h.flags & WDR_FLAG_RESPONSE) && p->h.seq == c->seq;
+    if (r != WDR_FEED_PACKET && ours) {
+        c->garbled[r == WDR_FEED_TOO_LARGE]++;
+        return RETRY; /* a garbled answer: ask again, the board resends it */
+    }
     if (r != WDR_FEED_PACKET)
-        return ours ? RETRY : WDR_OK; /* a garbled answer: ask again, the board resends it */
+        return WDR_OK;
     if (p->h.flags & WDR_FLAG_EVENT)
         return c->on_event ? c->on_event(c->event_ctx, p) : WDR_OK;
     if (!ours)
@@ -132,11 +136,24 @@ static int request_was_damaged(const wdr_client *c, uint8_t opcode)
     return c->status == WDR_ST_BAD_CRC && opcode != WDR_CMD_LUT_COMMIT && opcode != WDR_CMD_CAL_COMMIT;
 }
 
+/* Every attempt ended without a usable answer: name what came back, if anything did. */
+static int no_good_answer(wdr_client *c, uint8_t opcode)
+{
+    if (!c->garbled[0] && !c->garbled[1])
+        return transport_fail(c, WDR_E_TIMEOUT, opcode);
+    char what[224];
+    snprintf(what, sizeof what, "no valid answer to %s after %d attempt(s) of %d ms: %u garbled (payload CRC wrong), "
+             "%u oversize (length over %u bytes)", opcode_name(opcode), c->retries + 1, c->timeout_ms, c->garbled[0],
+             c->garbled[1], WDR_PROTO_MAX_PAYLOAD);
+    return fail(c, WDR_E_PROTOCOL, what);
+}
+
 int wdr_client_request(wdr_client *c, uint8_t opcode, const void *payload, uint32_t len)
 {
     if (len > WDR_PROTO_MAX_PAYLOAD)
         return fail(c, WDR_E_TOO_LARGE, "request payload too large");
     c->seq++;
+    c->garbled[0] = c->garbled[1] = 0;
     size_t frame_len = encode_request(c, opcode, payload, len);
     for (int attempt = 0; attempt <= c->retries; attempt++) {
         if (attempt)
@@ -157,30 +174,53 @@ int wdr_client_request(wdr_client *c, uint8_t opcode, const void *payload, uint3
         if (rc != RETRY)
             return rc; /* c->err says why */
     }
-    return transport_fail(c, WDR_E_TIMEOUT, opcode);
+    return no_good_answer(c, opcode);
 }
 
 /* ---- Connect, status, illuminant ------------------------------------------------------------ */
 
-/* Every INFO field later code sizes or shifts with, checked once here: a hostile or broken
- * board's adc_bits of 40 was an undefined shift, a 0x0 sensor a 0x0 image written with exit 0. */
-static int info_check(wdr_client *c)
+typedef struct field_limit {
+    const char *name;
+    uint64_t value, lo, hi;
+} field_limit;
+
+static int check_fields(wdr_client *c, const char *answer, const field_limit *f, size_t n)
 {
-    const wdr_info *i = &c->info;
-    const struct { const char *name; unsigned value, lo, hi; } f[] = {
-        {"width", i->width, 1, 65535},
-        {"height", i->height, 1, 65535},
-        {"adc_bits", i->adc_bits, 1, 16},
-        {"dac_bits", i->dac_bits, 1, 16},
-    };
-    for (size_t k = 0; k < sizeof f / sizeof f[0]; k++)
+    for (size_t k = 0; k < n; k++)
         if (f[k].value < f[k].lo || f[k].value > f[k].hi) {
-            char what[160];
-            snprintf(what, sizeof what, "INFO answer: field '%s' is %u, not %u..%u", f[k].name, f[k].value, f[k].lo,
-                     f[k].hi);
+            char what[192];
+            snprintf(what, sizeof what, "%s answer: field '%s' is %llu, not %llu..%llu (firmware/SPEC.md, field limits)",
+                     answer, f[k].name, (unsigned long long)f[k].value, (unsigned long long)f[k].lo,
+                     (unsigned long long)f[k].hi);
             return fail(c, WDR_E_PROTOCOL, what);
         }
     return WDR_OK;
+}
+
+/* Every INFO field later code sizes, shifts or waits with, checked once here: a hostile or broken
+ * board's adc_bits of 40 was an undefined shift, a 0x0 sensor a 0x0 image written with exit 0, a
+ * row time of 4 s on 65535 rows a 78-hour wait. */
+static int info_check(wdr_client *c)
+{
+    const wdr_info *i = &c->info;
+    const field_limit f[] = {
+        {"width", i->width, 1, WDR_PROTO_MAX_ROW_WIDTH},
+        {"height", i->height, 1, WDR_PROTO_MAX_HEIGHT},
+        {"adc_bits", i->adc_bits, 1, 16},
+        {"dac_bits", i->dac_bits, 1, 16},
+        {"row_time_ns", i->row_time_ns, 0, WDR_PROTO_MAX_ROW_TIME_NS},
+        {"height x row_time_ns", (uint64_t)i->height * i->row_time_ns, 0, WDR_PROTO_MAX_READOUT_NS},
+    };
+    return check_fields(c, "INFO", f, sizeof f / sizeof f[0]);
+}
+
+/* The STATUS fields a capture's wait is sized with. */
+static int status_check(wdr_client *c, const wdr_status_report *s)
+{
+    const field_limit f[] = {
+        {"integration_ns", s->integration_ns, 0, WDR_PROTO_MAX_INTEGRATION_NS},
+    };
+    return check_fields(c, "STATUS", f, sizeof f / sizeof f[0]);
 }
 
 /* A connection the board never answers: it serves one host at a time, so the likeliest reason
@@ -198,7 +238,7 @@ int wdr_client_connect(wdr_client *c, wdr_transport *t)
     wdr_event_fn keep_fn = c->on_event;
     void *keep_ctx = c->event_ctx;
     int timeout = c->timeout_ms > 0 ? c->timeout_ms : WDR_CLIENT_TIMEOUT_MS;
-    int retries = c->retries > 0 ? c->retries : WDR_CLIENT_RETRIES;
+    int retries = c->retries >= 0 ? c->retries : WDR_CLIENT_RETRIES; /* 0: exactly one attempt */
     memset(c, 0, sizeof *c);
     c->t = t;
     c->timeout_ms = timeout;
@@ -235,7 +275,7 @@ int wdr_client_status(wdr_client *c, wdr_status_report *out)
     int rc = wdr_client_request(c, WDR_CMD_STATUS, NULL, 0);
     if (rc == WDR_OK && wdr_status_unpack(c->reply, c->reply_len, out) != WDR_OK)
         return fail(c, WDR_E_PROTOCOL, "STATUS answer too short");
-    return rc;
+    return rc == WDR_OK ? status_check(c, out) : rc;
 }
 
 int wdr_client_set_illuminant(wdr_client *c, double amps)
@@ -325,6 +365,14 @@ int wdr_client_upload(wdr_client *c, int kind, const uint8_t *table, size_t len,
 
 /* ---- Capture and stream ------------------------------------------------------------------------ */
 
+/* What arrived since the last complete frame, for the message when none completes in time. */
+typedef struct capture_seen {
+    uint32_t packets;  /* decoded packets and garbled frames */
+    uint32_t rows;     /* ROW events of this request */
+    uint32_t foreign;  /* events of another request's sequence number */
+    uint32_t garbled;  /* frames with a bad payload CRC or over the length limit */
+} capture_seen;
+
 typedef struct capture_ctx {
     wdr_client *c;
     wdr_frame frame;
@@ -332,7 +380,59 @@ typedef struct capture_ctx {
     wdr_frame_fn on_frame;
     void *ctx;
     int stopping;          /* stream: frames after the stop are dropped */
+    int open;              /* rows of frame `number` arrived, its FRAME_END not yet */
+    uint32_t number;       /* the frame number those rows carry */
+    capture_seen seen;
+    uint8_t row_seen[WDR_PROTO_MAX_HEIGHT / 8]; /* bit per row of the open frame: each must come once */
 } capture_ctx;
+
+static int row_was_seen(const capture_ctx *k, uint32_t row) { return k->row_seen[row / 8] >> (row % 8) & 1; }
+
+static int refuse_frame(capture_ctx *k, const char *why)
+{
+    char what[224];
+    snprintf(what, sizeof what, "frame %u refused: %s", k->number, why);
+    return fail(k->c, WDR_E_FRAME, what);
+}
+
+/* The rows of the open frame that did not arrive, as ranges ("rows 1-3, 7 missing"). */
+static void missing_rows(const capture_ctx *k, char *out, size_t cap)
+{
+    size_t len = (size_t)snprintf(out, cap, "rows");
+    uint32_t h = k->frame.height, ranges = 0;
+    for (uint32_t r = 0; r < h && len < cap; r++) {
+        if (row_was_seen(k, r))
+            continue;
+        uint32_t last = r;
+        while (last + 1 < h && !row_was_seen(k, last + 1))
+            last++;
+        if (++ranges > 6) {
+            snprintf(out + len, cap - len, " ...");
+            return;
+        }
+        len += (size_t)(last == r ? snprintf(out + len, cap - len, "%s %u", ranges > 1 ? "," : "", r)
+                                  : snprintf(out + len, cap - len, "%s %u-%u", ranges > 1 ? "," : "", r, last));
+        r = last;
+    }
+}
+
+/* A new frame begins with its first row: the bitmap starts empty. */
+static int open_frame(capture_ctx *k, uint32_t number)
+{
+    if (k->open && number != k->number) {
+        char why[96];
+        snprintf(why, sizeof why, "rows of frame %u began before its FRAME_END (%u of %u rows)", number,
+                 k->frame.rows_seen, k->frame.height);
+        return refuse_frame(k, why);
+    }
+    if (!k->open) {
+        memset(k->row_seen, 0, (k->frame.height + 7u) / 8u);
+        k->frame.rows_seen = 0;
+        k->number = number;
+        k->open = 1;
+    }
+    return WDR_OK;
+}
 
 static int take_row(capture_ctx *k, const wdr_packet *p)
 {
@@ -340,41 +440,75 @@ static int take_row(capture_ctx *k, const wdr_packet *p)
     if (p->h.length < WDR_PROTO_ROW_HEADER)
         return fail(k->c, WDR_E_PROTOCOL, "ROW event too short");
     uint16_t row = wdr_get_u16(q + 4), width = wdr_get_u16(q + 6);
-    if (width != k->frame.width || row >= k->frame.height || p->h.length != WDR_PROTO_ROW_HEADER + 2u * width) {
+    if (width != k->frame.width || p->h.length != WDR_PROTO_ROW_HEADER + 2u * width) {
         char what[128];
-        snprintf(what, sizeof what, "ROW event for row %u, width %u does not fit the %ux%u sensor", row, width,
-                 k->frame.width, k->frame.height);
+        snprintf(what, sizeof what, "ROW event of width %u and %u bytes does not fit the %u-pixel rows", width,
+                 p->h.length, k->frame.width);
         return fail(k->c, WDR_E_PROTOCOL, what);
     }
+    int rc = open_frame(k, wdr_get_u32(q));
+    if (rc != WDR_OK)
+        return rc;
+    char why[96];
+    if (row >= k->frame.height) {
+        snprintf(why, sizeof why, "row %u is outside the sensor's rows 0-%u", row, k->frame.height - 1u);
+        return refuse_frame(k, why);
+    }
+    if (row_was_seen(k, row)) {
+        snprintf(why, sizeof why, "row %u arrived twice", row);
+        return refuse_frame(k, why);
+    }
+    k->row_seen[row / 8] |= (uint8_t)(1u << (row % 8));
     uint16_t *dst = k->frame.codes + (size_t)row * width;
     for (uint16_t i = 0; i < width; i++)
         dst[i] = wdr_get_u16(q + WDR_PROTO_ROW_HEADER + 2u * i);
     k->frame.rows_seen++;
+    k->seen.rows++;
     return WDR_OK;
 }
 
+/* Complete only when every row arrived once, and the FRAME_END agrees. */
 static int take_frame_end(capture_ctx *k, const wdr_packet *p)
 {
     if (wdr_frame_end_unpack(p->payload, p->h.length, &k->frame.end) != WDR_OK)
         return fail(k->c, WDR_E_PROTOCOL, "FRAME_END event too short");
-    uint32_t rows = k->frame.rows_seen;
-    k->frame.rows_seen = 0;
-    if (k->stopping)
-        return WDR_OK;
-    if (rows != k->frame.height || k->frame.end.rows != k->frame.height) {
-        char what[128];
-        snprintf(what, sizeof what, "frame %u arrived with %u of %u rows", k->frame.end.frame, rows, k->frame.height);
-        return fail(k->c, WDR_E_PROTOCOL, what);
+    const wdr_frame_end *e = &k->frame.end;
+    char why[192];
+    if (!k->open) {
+        k->number = e->frame;
+        memset(k->row_seen, 0, (k->frame.height + 7u) / 8u);
+        k->frame.rows_seen = 0;
+    }
+    k->open = 0;
+    if (e->frame != k->number) {
+        snprintf(why, sizeof why, "its FRAME_END carries frame number %u", e->frame);
+        return refuse_frame(k, why);
+    }
+    if (k->frame.rows_seen != k->frame.height) {
+        char rows[128];
+        missing_rows(k, rows, sizeof rows);
+        snprintf(why, sizeof why, "%s missing (%u of %u rows arrived)", rows, k->frame.rows_seen, k->frame.height);
+        return refuse_frame(k, why);
+    }
+    if (e->rows != k->frame.height) {
+        snprintf(why, sizeof why, "its FRAME_END counts %u rows, the sensor has %u", e->rows, k->frame.height);
+        return refuse_frame(k, why);
     }
     k->frames_done++;
+    k->seen = (capture_seen){0};
     return k->on_frame ? k->on_frame(k->ctx, &k->frame) : WDR_OK;
 }
 
 static int capture_event(void *ctx, const wdr_packet *p)
 {
     capture_ctx *k = ctx;
-    if (p->h.seq != k->c->seq)
+    k->seen.packets++;
+    if (k->stopping)
+        return WDR_OK; /* rows still in flight belong to a frame nobody wants */
+    if (p->h.seq != k->c->seq) {
+        k->seen.foreign++;
         return WDR_OK; /* left over from an earlier capture */
+    }
     if (p->h.opcode == WDR_CMD_ROW)
         return take_row(k, p);
     if (p->h.opcode == WDR_CMD_FRAME_END)
@@ -382,52 +516,74 @@ static int capture_event(void *ctx, const wdr_packet *p)
     return WDR_OK;
 }
 
-/* Wait for events until cond holds; each packet may take timeout_ms. */
-static int pump_events(capture_ctx *k, int timeout_ms, volatile int *stop)
+static int frame_overdue(capture_ctx *k, int64_t frame_ms)
+{
+    char what[200];
+    snprintf(what, sizeof what, "no complete frame within %lld ms (the board's frame time and --timeout): %u frame(s) "
+             "received, then %u packet(s): %u row(s) of this request, %u event(s) of another request, %u garbled",
+             (long long)frame_ms, k->frames_done, k->seen.packets, k->seen.rows, k->seen.foreign, k->seen.garbled);
+    return fail(k->c, WDR_E_TIMEOUT, what);
+}
+
+/* Events until the frames wanted (or *stop). One deadline per frame, frame_ms after the last
+ * complete one: packets that keep coming (another request's rows, garbage) do not extend it. */
+static int pump_events(capture_ctx *k, int64_t frame_ms, volatile int *stop)
 {
     wdr_client *c = k->c;
+    int64_t deadline = wdr_transport_now_ms() + frame_ms;
     while (k->frames_done < k->frames_wanted && !(stop && *stop)) {
         wdr_packet p;
-        int r = next_packet(c, wdr_transport_now_ms() + timeout_ms, &p);
-        if (r == WDR_E_TIMEOUT) {
-            char what[128];
-            snprintf(what, sizeof what, "frame data stopped arriving for %d ms (%u frames received)", timeout_ms,
-                     k->frames_done);
-            return fail(c, r, what);
-        }
+        uint32_t done = k->frames_done;
+        int r = next_packet(c, deadline, &p);
+        if (r == WDR_E_TIMEOUT)
+            return frame_overdue(k, frame_ms);
         if (r < 0)
             return transport_fail(c, r, WDR_CMD_CAPTURE);
-        if (r != WDR_FEED_PACKET || !(p.h.flags & WDR_FLAG_EVENT))
-            continue; /* garbled events cannot be asked for again; the frame check catches gaps */
+        if (r != WDR_FEED_PACKET) {
+            k->seen.packets++;
+            k->seen.garbled++; /* garbled events cannot be asked for again; the frame check catches gaps */
+            continue;
+        }
+        if (!(p.h.flags & WDR_FLAG_EVENT))
+            continue;
         int rc = capture_event(k, &p);
         if (rc != WDR_OK)
             return rc;
+        if (k->frames_done != done)
+            deadline = wdr_transport_now_ms() + frame_ms;
     }
     return WDR_OK;
 }
 
-/* Time a frame may take on the board: its integration plus the slowest readout we expect. */
-static int frame_timeout_ms(wdr_client *c)
+/* Time a frame may take: reset, the integration in force (STATUS) and the readout (INFO), each
+ * within the protocol's limits (checked at connect and in wdr_client_status), plus one
+ * --timeout for the link. */
+static int frame_wait_ms(wdr_client *c, int64_t *out)
 {
     wdr_status_report st;
-    int64_t ms = c->timeout_ms;
-    if (wdr_client_status(c, &st) == WDR_OK)
-        ms += st.integration_ns / 1000000 + (int64_t)c->info.height * c->info.row_time_ns / 1000000;
-    return ms > 0x7fffffff ? 0x7fffffff : (int)ms;
+    int rc = wdr_client_status(c, &st);
+    if (rc != WDR_OK)
+        return rc;
+    uint64_t ns = 1000000u + (uint64_t)st.integration_ns + (uint64_t)c->info.height * c->info.row_time_ns;
+    *out = c->timeout_ms + (int64_t)((ns + 999999u) / 1000000u);
+    return WDR_OK;
 }
 
 static int run_capture(wdr_client *c, capture_ctx *k, uint8_t opcode, const uint8_t *arg, uint32_t arg_len,
                        volatile int *stop)
 {
-    int per_packet_ms = frame_timeout_ms(c);
+    int64_t frame_ms;
+    int rc = frame_wait_ms(c, &frame_ms);
+    if (rc != WDR_OK)
+        return rc;
     k->c = c;
     k->frame.width = c->info.width;
     k->frame.height = c->info.height;
     c->on_event = capture_event;
     c->event_ctx = k;
-    int rc = wdr_client_request(c, opcode, arg, arg_len);
+    rc = wdr_client_request(c, opcode, arg, arg_len);
     if (rc == WDR_OK)
-        rc = pump_events(k, per_packet_ms, stop);
+        rc = pump_events(k, frame_ms, stop);
     return rc;
 }
 
@@ -471,8 +627,12 @@ int wdr_client_stream(wdr_client *c, uint16_t *codes, wdr_frame_fn on_frame, voi
         c->on_event = NULL; /* k dies with this frame: a later request must not call into it */
         return rc;
     }
-    k.stopping = 1; /* rows still in flight belong to a frame nobody wants */
+    k.stopping = 1; /* capture_event drops what is still in flight */
+    char why[sizeof c->err];
+    memcpy(why, c->err, sizeof why);
     int rc_off = wdr_client_request(c, WDR_CMD_STREAM, &off, 1);
     c->on_event = NULL;
+    if (rc != WDR_OK)
+        memcpy(c->err, why, sizeof why); /* what stopped the stream, not the stop's own failure */
     return rc != WDR_OK ? rc : rc_off;
 }

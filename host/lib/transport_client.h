@@ -23,7 +23,8 @@ typedef void (*wdr_progress_fn)(void *ctx, size_t done, size_t total);
 
 typedef struct wdr_client {
     wdr_transport *t;            /* not owned */
-    int timeout_ms, retries;
+    int timeout_ms, retries;     /* set before connect: timeout 0 and retries < 0 take the defaults;
+                                    retries 0 is one attempt */
     uint16_t seq;                /* last sequence number used */
     int status;                  /* enum wdr_status of the last response */
     wdr_info info;               /* from connect */
@@ -38,6 +39,7 @@ typedef struct wdr_client {
     uint32_t reply_len;
     uint8_t rx[16384];           /* received bytes not yet fed to the decoder */
     size_t rx_pos, rx_len;
+    uint32_t garbled[2];         /* answers to the last request: [0] bad payload CRC, [1] oversize */
     char err[256];               /* message for the last failure */
 } wdr_client;
 
@@ -76,8 +78,12 @@ typedef struct wdr_frame {
 typedef int (*wdr_frame_fn)(void *ctx, const wdr_frame *f);
 
 /* Capture n frames: one CAPTURE request, then frames until n FRAME_ENDs. codes must hold
- * width*height values. A frame that misses rows is an error (WDR_E_PROTOCOL).
- * @retval WDR_OK, request errors, WDR_E_TIMEOUT (rows stopped coming) */
+ * width*height values. A frame is complete only when each of its rows arrived once; each frame
+ * must complete within the board's frame time (STATUS integration + INFO readout) plus
+ * timeout_ms of the last one, whatever else keeps arriving.
+ * @retval WDR_OK, request errors
+ * @retval WDR_E_FRAME    a row arrived twice, outside the sensor, or not at all (c->err names them)
+ * @retval WDR_E_TIMEOUT  no complete frame in time (c->err says what arrived instead) */
 int wdr_client_capture(wdr_client *c, uint32_t n, uint16_t *codes, wdr_frame_fn on_frame, void *ctx);
 
 /* The same with no calibration table applied on the board (protocol 1.1): what calibration

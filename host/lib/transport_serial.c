@@ -172,14 +172,19 @@ static int wrap_socket(int fd, const char *name, wdr_transport **out)
     return rc;
 }
 
-static int socket_error(const char *what, const char *addr, int e, char *err, int errlen)
+static int socket_error(const char *what, const char *addr, int e, int timeout_ms, char *err, int errlen)
 {
+    if (e == ETIMEDOUT) {
+        snprintf(err, (size_t)errlen, "the board at %s:%s accepted no connection within %d ms (its queue is full, "
+                 "or nothing answers there)", what, addr, timeout_ms);
+        return WDR_E_TIMEOUT;
+    }
     snprintf(err, (size_t)errlen, "no board at %s:%s (%s): is the emulator running with -serial %s:%s,server?", what,
              addr, strerror(e), what, addr);
     return e == ENOENT || e == ECONNREFUSED ? WDR_E_ABSENT : e == EACCES ? WDR_E_DENIED : WDR_E_IO;
 }
 
-int wdr_transport_open_unix(const char *path, wdr_transport **out, char *err, int errlen)
+int wdr_transport_open_unix(const char *path, int timeout_ms, wdr_transport **out, char *err, int errlen)
 {
     struct sockaddr_un sa = {.sun_family = AF_UNIX};
     *out = NULL;
@@ -190,11 +195,11 @@ int wdr_transport_open_unix(const char *path, wdr_transport **out, char *err, in
     }
     memcpy(sa.sun_path, path, strlen(path) + 1);
     int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd < 0 || connect(fd, (struct sockaddr *)&sa, sizeof sa) < 0) {
-        int e = errno;
+    int e = fd < 0 ? errno : wdr_socket_connect(fd, &sa, sizeof sa, timeout_ms);
+    if (e) {
         if (fd >= 0)
             close(fd);
-        return socket_error("unix", path, e, err, errlen);
+        return socket_error("unix", path, e, timeout_ms, err, errlen);
     }
     char name[160];
     snprintf(name, sizeof name, "unix:%s", path);
@@ -202,7 +207,7 @@ int wdr_transport_open_unix(const char *path, wdr_transport **out, char *err, in
 }
 
 /* "HOST:PORT" */
-int wdr_transport_open_tcp(const char *spec, wdr_transport **out, char *err, int errlen)
+int wdr_transport_open_tcp(const char *spec, int timeout_ms, wdr_transport **out, char *err, int errlen)
 {
     char host[128];
     const char *colon = strrchr(spec, ':');
@@ -220,17 +225,18 @@ int wdr_transport_open_tcp(const char *spec, wdr_transport **out, char *err, int
         return WDR_E_INVAL;
     }
     int fd = -1, e = ECONNREFUSED;
+    int64_t deadline = wdr_transport_now_ms() + timeout_ms; /* one deadline for all the addresses */
     for (struct addrinfo *a = ai; a && fd < 0; a = a->ai_next) {
         fd = socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
-        if (fd >= 0 && connect(fd, a->ai_addr, a->ai_addrlen) < 0) {
-            e = errno;
+        int64_t left = deadline - wdr_transport_now_ms();
+        if (fd >= 0 && (e = wdr_socket_connect(fd, a->ai_addr, a->ai_addrlen, left < 0 ? 0 : (int)left)) != 0) {
             close(fd);
             fd = -1;
         }
     }
     freeaddrinfo(ai);
     if (fd < 0)
-        return socket_error("tcp", spec, e, err, errlen);
+        return socket_error("tcp", spec, e, timeout_ms, err, errlen);
     char name[160];
     snprintf(name, sizeof name, "tcp:%s", spec);
     return wrap_socket(fd, name, out);

@@ -95,8 +95,13 @@ int wdr_transport_from_fd(int fd, const char *name, wdr_transport **out)
     return WDR_OK;
 }
 
-static int connect_error(const char *path, int e, char *err, int errlen)
+static int connect_error(const char *path, int e, int timeout_ms, char *err, int errlen)
 {
+    if (e == ETIMEDOUT) {
+        snprintf(err, (size_t)errlen, "the simulated board at %s accepted no connection within %d ms (its queue is "
+                 "full: another host holds it)", path, timeout_ms);
+        return WDR_E_TIMEOUT;
+    }
     if (e == ENOENT || e == ECONNREFUSED || e == ENOTSOCK) {
         snprintf(err, (size_t)errlen, "no simulated board at %s (%s): is wdr-simboard running with --socket %s?",
                  path, strerror(e), path);
@@ -106,7 +111,7 @@ static int connect_error(const char *path, int e, char *err, int errlen)
     return e == EACCES || e == EPERM ? WDR_E_DENIED : WDR_E_IO;
 }
 
-int wdr_transport_open_socket(const char *path, wdr_transport **out, char *err, int errlen)
+int wdr_transport_open_socket(const char *path, int timeout_ms, wdr_transport **out, char *err, int errlen)
 {
     struct sockaddr_un sa = {.sun_family = AF_UNIX};
     *out = NULL;
@@ -121,10 +126,10 @@ int wdr_transport_open_socket(const char *path, wdr_transport **out, char *err, 
         snprintf(err, (size_t)errlen, "socket(): %s", strerror(errno));
         return WDR_E_IO;
     }
-    if (connect(fd, (struct sockaddr *)&sa, sizeof sa) < 0) {
-        int e = errno;
+    int e = wdr_socket_connect(fd, &sa, sizeof sa, timeout_ms);
+    if (e) {
         close(fd);
-        return connect_error(path, e, err, errlen);
+        return connect_error(path, e, timeout_ms, err, errlen);
     }
     char name[160];
     snprintf(name, sizeof name, "sim:%s", path);

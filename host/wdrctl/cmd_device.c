@@ -130,7 +130,8 @@ int wdrctl_exit_code(int rc, int status)
     case WDR_E_DENIED: return EX_NOPERM;
     case WDR_E_BUSY:
     case WDR_E_TIMEOUT: return EX_TEMPFAIL;
-    case WDR_E_IO: return EX_IOERR;
+    case WDR_E_IO:
+    case WDR_E_FRAME: return EX_IOERR;
     case WDR_E_PROTOCOL:
     case WDR_E_VERSION:
     case WDR_E_CORRUPT: return EX_PROTOCOL;
@@ -142,12 +143,13 @@ int wdrctl_exit_code(int rc, int status)
 }
 
 /* Open address; a board that is absent is looked for again every 50 ms for wait_ms (one that
- * is starting: its socket not there yet, or not yet enumerated). */
-static int open_waiting(const char *address, int wait_ms, wdr_transport **t, char *err, int errlen)
+ * is starting: its socket not there yet, or not yet enumerated). A connection not accepted
+ * within timeout_ms fails (a listener whose queue is full). */
+static int open_waiting(const char *address, int timeout_ms, int wait_ms, wdr_transport **t, char *err, int errlen)
 {
     int64_t deadline = wdr_transport_now_ms() + wait_ms;
     for (;;) {
-        int rc = wdr_transport_open(address, t, err, errlen);
+        int rc = wdr_transport_open_within(address, timeout_ms, t, err, errlen);
         if (rc != WDR_E_ABSENT || wdr_transport_now_ms() >= deadline)
             return rc;
         usleep(50000);
@@ -158,7 +160,7 @@ static int connect_waiting(const char *address, int timeout_ms, int retries, int
 {
     char err[320];
     memset(conn, 0, sizeof *conn);
-    int rc = open_waiting(address, wait_ms, &conn->t, err, sizeof err);
+    int rc = open_waiting(address, timeout_ms, wait_ms, &conn->t, err, sizeof err);
     if (rc != WDR_OK)
         return wdrctl_fail(wdrctl_exit_code(rc, 0), "%s", err);
     conn->c = calloc(1, sizeof *conn->c);
@@ -500,7 +502,7 @@ int cmd_integration(int argc, char **argv)
     dev_opts o;
     double ns = 0;
     int rc = parse_opts(argc, argv, &wdrctl_cmd_integration, &o);
-    if (rc != EX_OK || (rc = parse_arg("integration", "NS (0: the LUT's own)", o.args[0], 0, 4294967295.0, &ns)) != EX_OK)
+    if (rc != EX_OK || (rc = parse_arg("integration", "NS (0: the LUT's own)", o.args[0], 0, WDR_PROTO_MAX_INTEGRATION_NS, &ns)) != EX_OK)
         return rc;
     uint8_t p[4];
     wdr_put_u32(p, (uint32_t)ns);

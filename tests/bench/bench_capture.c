@@ -72,6 +72,7 @@ static int measure(const char *address, const wdr_board *b, const uint8_t *lut, 
     wdr_client *c = calloc(1, sizeof *c);
     uint16_t *codes = malloc((size_t)b->width * b->height * sizeof *codes);
     c->timeout_ms = 10000;
+    c->retries = WDR_CLIENT_RETRIES;
     if (wdr_transport_open(address, &t, err, sizeof err) != WDR_OK)
         return die("connect", err);
     if (wdr_client_connect(c, t) != WDR_OK || wdr_client_upload(c, WDR_KIND_LUT, lut, lut_len, NULL, NULL, NULL) != WDR_OK ||

@@ -123,6 +123,7 @@ static int measure(const char *address, const wdr_board *b, int reps)
     uint8_t *lut = big_lut(b, &lut_len), *cal = vga_cal(b, &cal_len);
     double lut_mbps = 0, cal_mbps = 0;
     c->timeout_ms = 10000;
+    c->retries = WDR_CLIENT_RETRIES;
     if (wdr_transport_open(address, &t, err, sizeof err) != WDR_OK)
         return die("connect", err);
     int rc = wdr_client_connect(c, t) == WDR_OK ? 0 : die("connect", c->err);

@@ -130,6 +130,7 @@ int e2e_start_with_flash(e2e_board *e, const char *board_name, const char *flash
     if (!e->c || write_quiet_scene(e->scene_path) != 0 || spawn_board(e, board_path) != 0)
         return -1;
     e->c->timeout_ms = 5000;
+    e->c->retries = WDR_CLIENT_RETRIES;
     if (connect_when_ready(e) != 0) {
         print_log(e);
         return -1;

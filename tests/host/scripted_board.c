@@ -1,23 +1,45 @@
 /* Scripted fake board (see scripted_board.h). */
+#define _GNU_SOURCE /* posix_openpt, ptsname_r */
 #include "scripted_board.h"
 #include "crc32.h"
 #include "wdr_lut.h"
+#include <errno.h>
+#include <fcntl.h>
 #include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <sys/un.h>
+#include <termios.h>
 #include <unistd.h>
 
+/* One write, on a socket (no SIGPIPE) or a pty master. */
+static ssize_t put(scripted_board *b, const uint8_t *p, size_t len)
+{
+    return b->pty_slave >= 0 ? write(b->fd, p, len) : send(b->fd, p, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+}
+
+/* All of p, in 50 ms waits until stop: a host that stopped reading never blocks the board. */
 static void send_all(scripted_board *b, const uint8_t *p, size_t len)
 {
-    while (len > 0 && b->fd >= 0) {
-        ssize_t n = send(b->fd, p, len, MSG_NOSIGNAL);
-        if (n <= 0)
+    while (len > 0 && b->fd >= 0 && !b->broken && !b->stop) {
+        struct pollfd w = {.fd = b->fd, .events = POLLOUT};
+        if (poll(&w, 1, 50) <= 0)
+            continue;
+        ssize_t n = put(b, p, len);
+        if (n < 0 && (errno == EAGAIN || errno == EINTR))
+            continue;
+        if (n <= 0) {
+            b->broken = 1;
             return;
+        }
         p += n;
         len -= (size_t)n;
     }
 }
+
+int fake_alive(const scripted_board *b) { return b->fd >= 0 && !b->broken && !b->stop; }
 
 void fake_send_raw(scripted_board *b, const void *bytes, size_t len) { send_all(b, bytes, len); }
 
@@ -53,7 +75,7 @@ void fake_reply_info(scripted_board *b, const wdr_packet *req, uint16_t major)
     wdr_info info = {.proto_major = major, .proto_minor = 0, .fw_major = 1, .sensor_id = 0x1234,
                      .width = b->width, .height = b->height, .adc_bits = 12, .dac_bits = 12,
                      .max_payload = WDR_PROTO_MAX_PAYLOAD, .lut_capacity = 1 << 20, .cal_capacity = 1 << 22,
-                     .row_time_ns = 1000};
+                     .row_time_ns = b->row_time_ns ? b->row_time_ns : 1000};
     strcpy(info.name, "fake");
     uint8_t p[WDR_INFO_SIZE];
     wdr_info_pack(&info, p);
@@ -144,7 +166,9 @@ static void serve(scripted_board *b)
     uint8_t buf[8192];
     wdr_proto_decoder_init(&dec);
     while (wait_readable(b, b->fd)) {
-        ssize_t n = recv(b->fd, buf, sizeof buf, 0);
+        ssize_t n = read(b->fd, buf, sizeof buf);
+        if (n < 0 && (errno == EAGAIN || errno == EINTR))
+            continue;
         if (n <= 0)
             return;
         size_t pos = 0;
@@ -186,6 +210,8 @@ static void init(scripted_board *b, fake_script script)
         b->height = 8;
     b->script = script;
     b->stop = 0;
+    b->broken = 0;
+    b->pty_slave = -1;
     b->requests = 0;
     memset(b->opcodes, 0, sizeof b->opcodes);
 }
@@ -211,10 +237,33 @@ int scripted_board_start_listen(scripted_board *b, const char *path, fake_script
     return 0;
 }
 
+/* The board holds the slave open too: the master then never reads as hung up before the host
+ * opens it, or after it leaves. Raw, so that nothing is echoed before the host sets raw mode. */
+int scripted_board_start_pty(scripted_board *b, char *slave_path, size_t cap, fake_script script)
+{
+    init(b, script);
+    b->listen_fd = -1;
+    b->fd = posix_openpt(O_RDWR | O_NOCTTY);
+    if (b->fd < 0 || grantpt(b->fd) < 0 || unlockpt(b->fd) < 0 || ptsname_r(b->fd, slave_path, cap) != 0)
+        return -1;
+    b->pty_slave = open(slave_path, O_RDWR | O_NOCTTY);
+    struct termios tio;
+    if (b->pty_slave < 0 || tcgetattr(b->pty_slave, &tio) < 0)
+        return -1;
+    cfmakeraw(&tio);
+    tcsetattr(b->pty_slave, TCSANOW, &tio);
+    fcntl(b->fd, F_SETFL, fcntl(b->fd, F_GETFL) | O_NONBLOCK);
+    pthread_create(&b->thread, NULL, fake_main, b);
+    return 0;
+}
+
 void scripted_board_stop(scripted_board *b)
 {
     b->stop = 1;
     pthread_join(b->thread, NULL);
+    if (b->pty_slave >= 0)
+        close(b->pty_slave);
+    b->pty_slave = -1;
     if (b->fd >= 0)
         close(b->fd);
     if (b->listen_fd >= 0)

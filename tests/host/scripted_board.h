@@ -21,6 +21,9 @@ struct scripted_board {
     int opcodes[256];       /* request count per opcode */
     uint16_t last_seq;
     uint16_t width, height;
+    uint32_t row_time_ns;   /* INFO's row time; 0: 1000 */
+    int pty_slave;          /* the board's own fd of its pty's slave, or -1 on a socket */
+    volatile int broken;    /* a send failed: the host went away */
     pthread_t thread;
     volatile int stop;
 };
@@ -30,6 +33,12 @@ void scripted_board_start_fd(scripted_board *b, int fd, fake_script script);
 
 /* Listen on path, accept one host, serve it. */
 int scripted_board_start_listen(scripted_board *b, const char *path, fake_script script);
+
+/* Open a pty, serve its master; the slave's path (for serial:PATH) goes to slave_path. */
+int scripted_board_start_pty(scripted_board *b, char *slave_path, size_t cap, fake_script script);
+
+/* Whether the host may still be there (no send failed, not stopped): scripts that flood loop on it. */
+int fake_alive(const scripted_board *b);
 
 /* Stop the thread and close the sockets. */
 void scripted_board_stop(scripted_board *b);
