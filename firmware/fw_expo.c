@@ -16,15 +16,22 @@
 static const uint16_t exp2_q15[17] = {32768, 34219, 35734, 37316, 38968, 40693, 42495, 44376, 46341,
                                       48393, 50535, 52773, 55109, 57549, 60097, 62757, 65535};
 
-/* own * exp(-gain / 256), in ps; gain in ln units of 1/256. 0 if it overflows 32 bits. */
+/* own * exp(-gain / 256), in ps; gain in ln units of 1/256. 0 if it overflows 32 bits or falls
+ * below 1 ps. Defined for every gain: own * frac is below 2^48, so a factor under 2^-48 is 0
+ * (a shift by 64 or more, reached once the gain passed about 8,600, was undefined). */
 static uint32_t tick_for_gain(uint32_t own_ps, int32_t gain_q8)
 {
-    int32_t x = -(int32_t)(((int64_t)gain_q8 * LOG2E_Q8) >> 8); /* log2 of the factor, 1/256 */
-    int32_t n = x >> 8;                                          /* floor */
+    int64_t x64 = -(((int64_t)gain_q8 * LOG2E_Q8) >> 8); /* log2 of the factor, 1/256 */
+    if (x64 >= 40 * 256)
+        return 0u; /* overflows 32 bits */
+    if (x64 < -48 * 256)
+        return 0u; /* below 1 ps */
+    int32_t x = (int32_t)x64;
+    int32_t n = x >> 8; /* floor: -48..39 */
     uint32_t f = (uint32_t)x & 255u, i = f >> 4, r = f & 15u;
     uint32_t frac = exp2_q15[i] + (((uint32_t)(exp2_q15[i + 1] - exp2_q15[i]) * r) >> 4);
     uint64_t t = (uint64_t)own_ps * frac; /* Q15 */
-    t = n >= 15 ? (n >= 40 ? UINT64_MAX : t << (n - 15)) : t >> (15 - n);
+    t = n >= 15 ? t << (n - 15) : t >> (15 - n); /* shifts 0..24 and 1..63 */
     return t > UINT32_MAX ? 0u : (uint32_t)t;
 }
 

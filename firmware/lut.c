@@ -131,8 +131,11 @@ int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out)
     if (wdr_get_u16(p + 4) != WDR_LUT_EXPO_BINS || p[6] > 10u)
         return WDR_E_INVAL;
     out->code_shift = p[6];
-    for (uint32_t b = 0; b < WDR_LUT_EXPO_BINS; b++)
+    for (uint32_t b = 0; b < WDR_LUT_EXPO_BINS; b++) {
         out->ln_q8[b] = (int16_t)wdr_get_u16(p + 8 + 2 * b);
+        if (out->ln_q8[b] < -WDR_LUT_EXPO_MAX_LN_Q8 || out->ln_q8[b] > WDR_LUT_EXPO_MAX_LN_Q8)
+            return WDR_E_INVAL; /* the gain steps by half of it: bounded steps, bounded arithmetic */
+    }
     return WDR_OK;
 }
 

@@ -84,6 +84,7 @@ void wdr_lut_encode(wdr_lut_header *h, const uint32_t *t_ticks, const uint16_t *
 #define WDR_LUT_EXPO_MAGIC 0x58454c57u /* "WLEX" */
 #define WDR_LUT_EXPO_BINS 64u
 #define WDR_LUT_EXPO_SIZE (8u + 2u * WDR_LUT_EXPO_BINS + 4u)
+#define WDR_LUT_EXPO_MAX_LN_Q8 8192 /* |ln_q8| at most 32 ln (e^32 = 8e13, past any sensor's range) */
 
 typedef struct wdr_lut_exposure {
     uint8_t code_shift;                   /* bin = code >> code_shift, below WDR_LUT_EXPO_BINS */
@@ -92,7 +93,8 @@ typedef struct wdr_lut_exposure {
 
 /* Check and read the exposure block at buf (the bytes after a LUT's entries).
  * @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_LUT_EXPO_SIZE  @retval WDR_E_CORRUPT magic or CRC
- * @retval WDR_E_INVAL bins other than WDR_LUT_EXPO_BINS, or code_shift above 10 */
+ * @retval WDR_E_INVAL bins other than WDR_LUT_EXPO_BINS, code_shift above 10, or an ln_q8 outside
+ *                     +-WDR_LUT_EXPO_MAX_LN_Q8 */
 int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out);
 
 /* Write the block (WDR_LUT_EXPO_SIZE bytes, CRC computed here). */

@@ -39,7 +39,7 @@ void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, do
     for (uint32_t k = 0; k < WDR_LUT_EXPO_BINS; k++) {
         double first = (double)(k << out->code_shift); /* the firmware interpolates between bins */
         double ln_rel = ln_current_for_code(&px, b, lut, first) - log(key_amp);
-        double q = fmax(-32767, fmin(32767, ln_rel * 256));
+        double q = fmax(-WDR_LUT_EXPO_MAX_LN_Q8, fmin(WDR_LUT_EXPO_MAX_LN_Q8, ln_rel * 256));
         out->ln_q8[k] = (int16_t)lround(q);
     }
 }
