@@ -4,7 +4,10 @@
  *
  * Bounds, checked before any pixel is allocated: each side at most WDR_EXR_MAX_SIDE, at most
  * WDR_EXR_MAX_PIXELS pixels, and no more chunks than the file has room for in its offset table
- * (8 bytes per chunk), so a small file cannot claim a huge image. */
+ * (8 bytes per chunk), so a small file cannot claim a huge image; at most WDR_EXR_MAX_PARTS parts,
+ * counted in constant memory before OpenEXR parses them. An uncompressed chunk must hold exactly
+ * its lines' bytes ("damaged" otherwise: OpenEXR would fill the rest from uninitialised memory),
+ * and every strip is read into zeroed planes. */
 #ifndef WDR_EXR_READ_H
 #define WDR_EXR_READ_H
 #ifdef __cplusplus
@@ -13,6 +16,7 @@ extern "C" {
 
 #define WDR_EXR_MAX_SIDE 32768
 #define WDR_EXR_MAX_PIXELS (1L << 26) /* 64 Mpixel: 256 MB of luminance */
+#define WDR_EXR_MAX_PARTS 64           /* part headers, counted before any is parsed */
 
 /* Load part 0 of an EXR as luminance; *lum is malloc'd (free()), w*h values, rows top-down.
  * Values are passed through as stored (the caller applies wdr_hdr_sanitize).
