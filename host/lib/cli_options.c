@@ -174,6 +174,15 @@ static int take_option(walk *w, int argc, char **argv, int *i, int *keep)
     return set_value(w->p, w->cmd, o, value, w->dest[which]);
 }
 
+/* "-1", "-2.5", "-.5": a number, not an option, unless a table has that short option; it stays a
+ * positional argument, so that its range check names it ("sim illuminant -1" said "unknown option"). */
+static int looks_negative(const walk *w, const char *a)
+{
+    int which;
+    int digit = (a[1] >= '0' && a[1] <= '9') || (a[1] == '.' && a[2] >= '0' && a[2] <= '9');
+    return digit && !find_short(w->tables, a[1], &which);
+}
+
 /* Walk argv[1..]: options for a dest table are taken out, the rest (positional arguments and,
  * with dest[t] NULL, table t's options with their values) stay in order. @return EX_OK or
  * EX_USAGE; *argc becomes the count left. */
@@ -187,7 +196,7 @@ static int walk_args(walk *w, int *argc, char **argv)
             options_done = 1;
             if (w->dest[0]) /* the command's own walk: "--" is spent */
                 continue;
-        } else if (!options_done && a[0] == '-' && a[1]) {
+        } else if (!options_done && a[0] == '-' && a[1] && !looks_negative(w, a)) {
             rc = take_option(w, *argc, argv, &i, &keep);
         }
         for (int k = start; keep && k <= i; k++)

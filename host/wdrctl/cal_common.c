@@ -84,6 +84,12 @@ static int parse_current_list(const char *text, const char *what, double *amps, 
                              tok);
             break;
         }
+        if (v < GRID_LO || v > GRID_HI) {
+            rc = wdrctl_fail(EX_DATAERR, "%s: level %g A is outside the board's calibration range %g..%g A (the "
+                             "photocurrents a pixel's response carries contrast in, which calibrate probes)", what, v,
+                             GRID_LO, GRID_HI);
+            break;
+        }
         if (*n > 0 && !(v > amps[*n - 1])) {
             rc = wdrctl_fail(EX_DATAERR, "%s: currents must rise, %g A follows %g A", what, v, amps[*n - 1]);
             break;
@@ -180,6 +186,25 @@ void cal_grid_amps(double *amps, int *n)
         amps[k] = GRID_LO * pow(10, (double)k / GRID_PER_DECADE);
 }
 
+int cal_min_select(int model, int n_coeffs)
+{
+    switch (model) {
+    case WDR_MODEL_SIMPLE3: return 3;
+    case WDR_MODEL_LSQ: return WDR_LSQ_PARAMS + 2;
+    case WDR_MODEL_POLYMAP: return n_coeffs + 2;
+    default: return 4; /* complex4, spline */
+    }
+}
+
+const char *cal_pct_text(double pct, const char *why, char *buf, size_t cap)
+{
+    if (isfinite(pct))
+        snprintf(buf, cap, "%.3g %%", pct);
+    else
+        snprintf(buf, cap, "n/a (%s)", why);
+    return buf;
+}
+
 /* --frames auto: from the probe's measured noise (see wdr_cal_frames_for), printed with the reason. */
 static int choose_frames(const cal_opts *o, const wdr_cal_levels *probe, cal_run *r)
 {
@@ -203,11 +228,13 @@ static int choose_frames(const cal_opts *o, const wdr_cal_levels *probe, cal_run
             r->frames, r->why.sigma_codes, r->why.at_amps, r->why.slope, r->why.needed, r->why.want_codes, why);
     if (r->why.capped) { /* what the cap costs, in the contrast error it leaves at the level that decided */
         double left = r->why.sigma_codes / sqrt((double)r->frames);
+        char now[48], then[48];
+        const char *flat = "the response is flat there";
         fprintf(stderr,
-                "; capped at %d frames, which leave %.3g codes: a %.2g %% contrast error from temporal noise "
-                "there, where %d frames would leave %.2g %%",
-                AUTO_FRAMES_MAX, left, 100 * left / r->why.slope, r->why.needed,
-                100 * r->why.want_codes / r->why.slope);
+                "; capped at %d frames, which leave %.3g codes: a %s contrast error from temporal noise "
+                "there, where %d frames would leave %s",
+                AUTO_FRAMES_MAX, left, cal_pct_text(100 * left / r->why.slope, flat, now, sizeof now), r->why.needed,
+                cal_pct_text(100 * r->why.want_codes / r->why.slope, flat, then, sizeof then));
     }
     fputc('\n', stderr);
     return EX_OK;

@@ -10,11 +10,23 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* The photocurrents calibrate probes on every board, and the range given levels must lie in: a
+ * level of 1e-20 A or 1 A read as a flat response, fitted to NaN/Inf and exited 0. */
 #define GRID_LO 1e-14
 #define GRID_HI 1e-8
 #define GRID_PER_DECADE 6
+#define GRID_LEVELS 37 /* 6 decades x GRID_PER_DECADE + 1: the most levels --select can choose */
 #define N_EVAL 31
 #define MIN_SLOPE_CODES 2.0
+
+/* The fewest levels --select can choose that a model's fit and the selection's checks accept
+ * (simple3 3, complex4 4, spline 4, lsq WDR_LSQ_PARAMS + 2, polymap n_coeffs + 2); 3 is the
+ * least of any, GRID_LEVELS the most. */
+int cal_min_select(int model, int n_coeffs);
+#define CAL_SELECT_MIN 3
+
+/* "1.23 %" for a finite percentage, else "n/a (why)": no NaN or Inf reaches a printed figure. */
+const char *cal_pct_text(double pct, const char *why, char *buf, size_t cap);
 
 typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;

@@ -199,7 +199,9 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
                res->n_bad, (long)res->width * res->height);
         for (int k = 0; k < r->choice.n; k++)
             printf(" %.4g", r->choice.amps[k]);
-        printf(" A (0: dark reference)\nworst contrast error at selection: %.4g %%\n", r->choice.worst_pct);
+        char pct[64];
+        printf(" A (0: dark reference)\nworst contrast error at selection: %s\n",
+               cal_pct_text(r->choice.worst_pct, "levels given, not selected", pct, sizeof pct));
         printf("frames per level: %d%s\n", r->frames, r->why.frames ? " (auto)" : "");
         return;
     }
@@ -260,6 +262,10 @@ static int calibrate_with(const cal_opts *o, const wdr_cal_source *src, cal_run 
 {
     verify_result vr = {0};
     r->cfg.design = v->design; /* end slopes from the designed response */
+    int least = cal_min_select(model, r->cfg.n_coeffs);
+    if (o->select_n && o->select_n < least)
+        return wdrctl_fail(EX_USAGE, "calibrate: --select %d: model %s needs at least %d levels (--select %d..%d)",
+                           o->select_n, cal_model_name(model), least, least, GRID_LEVELS);
     int rc = cal_plan_currents(o, src, r, o->select_n ? o->select_n : cal_default_currents(model));
     if (rc == EX_OK)
         rc = cal_acquire_and_fit(o, src, r, sensor_id, op_id);
@@ -278,7 +284,7 @@ static const cli_option calibrate_rows[] = {
     {"models", 0, CLI_STRING, CAL_O(models), "NAME", "the same as --model", .flags = CLI_HIDDEN},
     {"currents", 0, CLI_STRING, CAL_O(currents), "A,B,..", "the light levels, in A per pixel, rising"},
     {"levels-file", 0, CLI_STRING, CAL_O(levels_file), "FILE", "the light levels, one per line (# comments)"},
-    {"select", 0, CLI_INT, CAL_O(select_n), "N", "choose N levels from a probe", .min = 2, .max = WDR_CAL_MAX_LEVELS - 1},
+    {"select", 0, CLI_INT, CAL_O(select_n), "N", "choose N levels from a probe (the model's least: simple3 3, complex4 and spline 4, polymap 6, lsq 7)", .min = CAL_SELECT_MIN, .max = GRID_LEVELS},
     CAL_ROW_FRAMES, CAL_ROW_BOARD, CAL_ROW_OPERATOR, CAL_ROW_ADC, CAL_ROW_DAC, CAL_ROW_NOISE,
     {"lut", 0, CLI_STRING, CAL_O(lut), "LUT.bin", "with --device: image with this LUT (stored with a margin)"},
     {"upload", 0, CLI_FLAG, CAL_O(upload), NULL, "with --device: store the table on the board and apply it"},

@@ -4,6 +4,7 @@
 #include "study.h"
 #include "wdrctl.h"
 #include "cli_number.h"
+#include <errno.h>
 #include <stddef.h>
 #include <math.h>
 #include <stdio.h>
@@ -147,6 +148,30 @@ static int outputs(const study *s, const study_opts *o, double wall)
     return rc;
 }
 
+/* Before any point is computed: the folder exists (or is made) and is a writable directory; a
+ * file of that name was found only after all points were computed. */
+static int check_outdir(const char *dir)
+{
+    struct stat st;
+    if (mkdir(dir, 0755) && errno != EEXIST)
+        return wdrctl_fail(EX_CANTCREAT, "study: --outdir %s: cannot create the directory: %s", dir, strerror(errno));
+    if (stat(dir, &st) || !S_ISDIR(st.st_mode))
+        return wdrctl_fail(EX_CANTCREAT, "study: --outdir %s: exists and is not a directory", dir);
+    if (access(dir, W_OK))
+        return wdrctl_fail(EX_CANTCREAT, "study: --outdir %s: not writable: %s", dir, strerror(errno));
+    return EX_OK;
+}
+
+/* A study whose every point failed has no figure to give: not a success. */
+static int check_some_point_ok(const study *s)
+{
+    for (int i = 0; i < s->n; i++)
+        if (s->res[i].ok)
+            return EX_OK;
+    return wdrctl_fail(EX_DATAERR, "study: none of the %d points succeeded (the first: %s)", s->n,
+                       s->n ? s->res[0].why : "no points");
+}
+
 int cmd_study(int argc, char **argv)
 {
     study_opts o;
@@ -157,8 +182,8 @@ int cmd_study(int argc, char **argv)
         s = (study){.board = o.board, .range_lo = o.lo, .range_hi = o.hi, .fps = o.fps, .seed = o.seed, .jobs = o.jobs};
         rc = study_expand(&o.k, &s, &skipped);
     }
-    if (rc == EX_OK && mkdir(o.outdir, 0755) && access(o.outdir, W_OK))
-        rc = wdrctl_fail(EX_CANTCREAT, "%s: cannot create the output directory", o.outdir);
+    if (rc == EX_OK)
+        rc = check_outdir(o.outdir);
     if (rc == EX_OK) {
         fprintf(stderr, "study: %d points (%d model/form pairs refused), %dx%d simulated pixels, %d jobs, seed %lu\n",
                 s.n, skipped, s.pts[0].width, s.pts[0].height, s.jobs, (unsigned long)o.seed);
@@ -166,6 +191,8 @@ int cmd_study(int argc, char **argv)
         rc = study_run(&s, wdrctl_show_progress(), &wall);
         if (rc == EX_OK)
             rc = outputs(&s, &o, wall);
+        if (rc == EX_OK)
+            rc = check_some_point_ok(&s);
     }
     free(s.pts), free(s.res);
     study_knobs_free_file(keep);
