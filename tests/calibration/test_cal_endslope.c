@@ -81,8 +81,8 @@ static void judge(chip *c, int model, int n_cur, int use_design, const double *x
     wdr_cal_choice ch;
     wdr_cal_levels lv;
     wdr_cal_result res;
-    uint8_t *tb;
-    size_t tl;
+    uint8_t *tb = NULL; /* fail_msg does not return, but clang cannot tell */
+    size_t tl = 0;
     wdr_cal_view tab;
     wdr_cal_config_defaults(&cfg, model);
     cfg.range_lo = 1e-14, cfg.range_hi = 1e-8;
