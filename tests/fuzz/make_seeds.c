@@ -5,6 +5,7 @@
  * scenes and the LUTs wdrctl builds are copied in by make_seeds.sh. */
 #include "crc32.h"
 #include "image_io.h"
+#include "make_seeds_image.h"
 #include "table_builders.h"
 #include "wdr_cal.h"
 #include "wdr_lut.h"
@@ -330,6 +331,7 @@ int main(int argc, char **argv)
     boot();
     images();
     client();
+    make_image_seeds(put);
     return 0;
 }
 
