@@ -2,11 +2,11 @@
  * with a factory v1 (--firmware), v2 uploaded with the protocol client, a reboot into a test
  * boot, confirm, a reboot: still v2. An unconfirmed v2 is back to v1 after 3 reboots; a bad
  * image is refused with its reason and v1 keeps answering. Every reset goes through the
- * bootloader's logic compiled for the host (hal/sim/hal_sim_boot.c).
- * argv[1]: the development key (the one the build trusts). Upload times are printed. */
+ * bootloader's logic compiled for the host (hal/sim/hal_sim_boot.c). Images are signed with
+ * OpenSSL by the development key (tests/firmware/boot_test_util.c). Upload times are printed. */
+#include "boot_test_util.h"
 #include "e2e_board.h"
 #include "crc32.h"
-#include "fw_sign.h"
 #include "transport.h"
 #include "wdr_boot.h"
 #include "wdr_bytes.h"
@@ -23,22 +23,19 @@
 #define BOARD "sim-qvga"
 #define APP_BYTES (256u * 1024u)
 
-static const char *key_path;
-static wdr_fw_key key;
+static bt_key key;
 static char dir[64], v1_path[128];
 static uint8_t *v1, *v2;
 static size_t v1_len, v2_len;
 
 static uint8_t *sign(uint8_t major, uint32_t counter, const char *board, size_t *len)
 {
-    uint8_t *app = malloc(APP_BYTES), *img = NULL;
-    char err[256];
-    for (uint32_t i = 0; i < APP_BYTES; i++)
-        app[i] = (uint8_t)(i * 7 + major);
-    wdr_fw_sign_params p = {{major, 0, 0, 42}, counter, 0x20000000u, board, 1};
-    if (wdr_fw_sign("app.bin", app, APP_BYTES, &p, &key, &img, len, err, sizeof err) != WDR_OK)
-        fail_msg("signing: %s", err);
-    free(app);
+    bt_image_spec s = bt_spec(major, counter, APP_BYTES);
+    s.version.build = 42;
+    s.board = board;
+    s.flags |= WDR_IMAGE_F_DEV_KEY;
+    uint8_t *img = malloc(APP_BYTES + 256);
+    *len = bt_image_build(img, APP_BYTES + 256, &s, &key, NULL);
     return img;
 }
 
@@ -163,11 +160,7 @@ static void blank_board_runs_unversioned(void **state)
 static int setup(void **state)
 {
     (void)state;
-    char err[256];
-    if (wdr_fw_key_load(key_path, 1, &key, err, sizeof err) != WDR_OK) {
-        print_error("%s\n", err);
-        return -1;
-    }
+    bt_key_dev(&key);
     v1 = sign(1, 1, BOARD, &v1_len);
     v2 = sign(2, 2, BOARD, &v2_len);
     snprintf(dir, sizeof dir, "/tmp/wdr-fwup-XXXXXX");
@@ -187,17 +180,11 @@ static int teardown(void **state)
     rmdir(dir);
     free(v1);
     free(v2);
-    wdr_fw_key_free(&key);
     return 0;
 }
 
-int main(int argc, char **argv)
+int main(void)
 {
-    if (argc < 2) {
-        print_error("usage: %s DEV_KEY.pem\n", argv[0]);
-        return 64;
-    }
-    key_path = argv[1];
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(update_test_boot_confirm),
         cmocka_unit_test(unconfirmed_reverts_after_three_reboots),

@@ -1,11 +1,11 @@
 /* Writes the generated part of the seed corpora (corpus/<target>/): tables built with the
  * formats' own encoders as the tests build them, files written by the project's writers and
  * stb_image_write, a good session per protocol harness, and every reproducer of issue 14.
- * Run once by hand (fuzz_make_seeds CORPUS_DIR DEV_KEY.pem); the output is committed. The real
+ * Run once by hand (fuzz_make_seeds CORPUS_DIR); the output is committed. The real
  * scenes and the LUTs wdrctl builds are copied in by make_seeds.sh. */
+#include "boot_test_util.h"
 #include "crc32.h"
 #include "fake_hal.h"
-#include "fw_sign.h"
 #include "image_io.h"
 #include "table_builders.h"
 #include "wdr_cal.h"
@@ -168,18 +168,13 @@ static void rec_u32(uint32_t v)
     rec_u16((uint16_t)(v >> 16));
 }
 
-static uint8_t *signed_image(const wdr_fw_key *key, uint8_t major, uint32_t counter, const char *board, size_t *n)
+static uint8_t *signed_image(const bt_key *key, uint8_t major, uint32_t counter, const char *board, size_t *n)
 {
-    static uint8_t app[512];
-    for (size_t i = 0; i < sizeof app; i++)
-        app[i] = (uint8_t)(i * 31 + major);
-    wdr_fw_sign_params p = {{major, 0, 0, 1}, counter, 0x20000000u, board, 1};
-    uint8_t *img;
-    char err[256];
-    if (wdr_fw_sign("app.bin", app, sizeof app, &p, key, &img, n, err, sizeof err)) {
-        fprintf(stderr, "make_seeds: %s\n", err);
-        exit(1);
-    }
+    bt_image_spec s = bt_spec(major, counter, 512);
+    s.board = board;
+    s.flags |= WDR_IMAGE_F_DEV_KEY;
+    uint8_t *img = malloc(1024);
+    *n = bt_image_build(img, 1024, &s, key, NULL);
     return img;
 }
 
@@ -190,14 +185,10 @@ static void image_rec(uint8_t op, const uint8_t *img, size_t n)
     rec_bytes(img, n);
 }
 
-static void fw_update(const char *key_path)
+static void fw_update(void)
 {
-    wdr_fw_key key;
-    char err[256];
-    if (wdr_fw_key_load(key_path, 1, &key, err, sizeof err)) {
-        fprintf(stderr, "make_seeds: %s\n", err);
-        exit(1);
-    }
+    bt_key key;
+    bt_key_dev(&key);
     size_t n1, n2, n3;
     uint8_t *v1 = signed_image(&key, 1, 1, FB_BOARD_NAME, &n1), *v2 = signed_image(&key, 2, 2, FB_BOARD_NAME, &n2);
     uint8_t *other = signed_image(&key, 3, 2, "other-board", &n3);
@@ -234,7 +225,6 @@ static void fw_update(const char *key_path)
     rec_u8(5);
     put("fw_update", "refusals", rec, rec_n);
     free(v1), free(v2), free(other);
-    wdr_fw_key_free(&key);
 }
 
 /* ---- boot: tables sealed into slots, then pokes ---- */
@@ -411,14 +401,14 @@ static void client(void)
 
 int main(int argc, char **argv)
 {
-    if (argc != 3) {
-        fprintf(stderr, "usage: fuzz_make_seeds CORPUS_DIR DEV_KEY.pem\n");
+    if (argc != 2) {
+        fprintf(stderr, "usage: fuzz_make_seeds CORPUS_DIR\n");
         return 64;
     }
     root = argv[1];
     tables();
     fw_rx();
-    fw_update(argv[2]);
+    fw_update();
     boot();
     images();
     client();
