@@ -1,5 +1,6 @@
 /* Boot chain test helpers (boot_test_util.h): OpenSSL signs, the NOR emulator stores. */
 #include "boot_test_util.h"
+#include "crc32.h"
 #include "wdr_err.h"
 #include <openssl/core_names.h>
 #include <openssl/ec.h>
@@ -134,6 +135,16 @@ void bt_flash_image(bt_flash *b, int slot, const uint8_t *img, size_t len)
         if (nor_emul_prog(&b->nor, at + (uint32_t)off, unit, 16) != WDR_OK)
             die("program");
     }
+}
+
+int bt_upload(bt_flash *b, int slot, const uint8_t *img, size_t len, uint32_t chunk, const wdr_boot_policy *pol)
+{
+    wdr_boot_upload u;
+    int rc = wdr_boot_upload_begin(&b->f, &b->l, &u, slot, (uint32_t)len, wdr_crc32(0, img, len));
+    for (size_t off = 0; rc == WDR_OK && off < len; off += chunk)
+        rc = wdr_boot_upload_chunk(&b->f, &b->l, &u, (uint32_t)off, img + off,
+                                   (uint32_t)(len - off < chunk ? len - off : chunk));
+    return rc == WDR_OK ? wdr_boot_upload_finish(&b->f, &b->l, &u, pol, NULL) : rc;
 }
 
 wdr_boot_policy bt_policy(const bt_key *trusted)
