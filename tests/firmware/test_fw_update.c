@@ -231,7 +231,11 @@ static void revert_goes_back_to_the_confirmed_image(void **state)
     image v2 = sign_v(2, 1);
     assert_int_equal(upload(&v2, 4096, NULL), WDR_ST_OK);
     assert_int_equal(reboot(), 1);
-    assert_int_equal(simple(WDR_CMD_FW_REVERT), WDR_ST_OK);
+    assert_int_equal(simple(WDR_CMD_FW_CONFIRM), WDR_ST_OK);
+    assert_int_equal(simple(WDR_CMD_FW_REVERT), WDR_ST_OK); /* a confirmed image may be left too */
+    /* until the reboot, slot A is the only way back: an upload there would erase it */
+    assert_int_equal(upload(&v2, 4096, NULL), WDR_ST_BAD_STATE);
+    assert_int_equal(fw_status().slot[0].state, WDR_SLOT_CONFIRMED);
     assert_int_equal(reboot(), 0);
     wdr_fw_status_report r = fw_status();
     assert_int_equal(r.slot[1].state, WDR_SLOT_REJECTED);
