@@ -24,6 +24,7 @@ struct scripted_board {
     uint32_t row_time_ns;   /* INFO's row time; 0: 1000 */
     int pty_slave;          /* the board's own fd of its pty's slave, or -1 on a socket */
     volatile int broken;    /* a send failed: the host went away */
+    int sessions;           /* hosts served one after the other on a listening socket (0: one) */
     pthread_t thread;
     volatile int stop;
 };
