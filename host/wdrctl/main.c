@@ -13,7 +13,7 @@ wdrctl_globals wdrctl_global;
 #define G(f) offsetof(wdrctl_globals, f)
 static const cli_option global_rows[] = {
     {"device", 0, CLI_STRING, G(device), "ADDR", "the board: sim:/path.sock, usb or usb:BUS-ADDR (default: $WDR_DEVICE)"},
-    {"timeout", 0, CLI_INT, G(timeout_ms), "MS", "reply timeout per request attempt (default 2000)", .min = 1,
+    {"timeout", 0, CLI_INT, G(timeout_ms), "MS", "reply timeout per request attempt, per connect, and a frame's allowance past the board's frame time (default 2000)", .min = 1,
      .max = 3600000},
     {"retries", 0, CLI_INT, G(retries), "N", "extra attempts after a timeout or a garbled reply (default 2)", .min = 0,
      .max = 100},
