@@ -112,7 +112,7 @@ size_t bt_image_build(uint8_t *out, size_t cap, const bt_image_spec *s, const bt
     wdr_image_header_pack(&h, out);
     for (uint32_t i = 0; i < s->app_size; i++)
         out[WDR_IMAGE_HEADER_SIZE + i] = (uint8_t)(i * 7u + s->seed * 31u + (i >> 8));
-    wdr_image_trailer t;
+    wdr_image_trailer t = {0};
     unsigned int dlen = 0;
     if (!EVP_Digest(out, WDR_IMAGE_HEADER_SIZE + s->app_size, t.sha256, &dlen, EVP_sha256(), NULL) ||
         !EVP_Digest((hash_key ? hash_key : signer)->pub, WDR_P256_PUBKEY_SIZE, t.key_hash, &dlen, EVP_sha256(), NULL))

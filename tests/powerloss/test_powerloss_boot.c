@@ -216,7 +216,7 @@ static void reference_run(void)
         c->ops = fl.nor.ops;
         c->h = h;
         c->before = before;
-        outcome o;
+        outcome o = {0, false};
         if (sc->steps[i].kind == BOOT) {
             assert_true(boot(&h, &o));
             assert_int_equal(o.major, before.major);
