@@ -6,8 +6,6 @@
 #   wdr_boot_mps2_hashonly.elf  the same without the signature check: only measures what the
 #                           check costs (tests/target), never flashed
 # each with its .bin and .hex, and the footprint of both side by side (wdr_footprint).
-# Without Mbed TLS (no wdr_boot: the fetch failed) neither the firmware, which verifies uploads,
-# nor the bootloader can be linked; the rest of the build goes on.
 find_program(WDR_OBJCOPY arm-none-eabi-objcopy REQUIRED)
 
 # The application's load range, from the board header (one place for the numbers).
@@ -24,10 +22,6 @@ function(wdr_mps2_outputs target)
     VERBATIM)
 endfunction()
 
-if(NOT TARGET wdr_boot)
-  message(STATUS "mps2-an500: no wdr_boot (no Mbed TLS for the Cortex-M7): firmware and bootloader not built")
-  return()
-endif()
 
 # The firmware's core again, with uploads held to this board's load range (the range the
 # bootloader checks at every boot: nothing it would reject is ever marked pending).

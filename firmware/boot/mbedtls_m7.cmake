@@ -9,7 +9,7 @@ if(NOT WDR_MBEDTLS_DIR)
                   OUTPUT_VARIABLE _wdr_mbedtls_src ERROR_VARIABLE _wdr_mbedtls_err RESULT_VARIABLE _wdr_mbedtls_rc
                   OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_STRIP_TRAILING_WHITESPACE)
   if(NOT _wdr_mbedtls_rc EQUAL 0)
-    message(WARNING "${_wdr_mbedtls_err}: no Mbed TLS for the Cortex-M7, the bootloader is not built")
+    message(STATUS "${_wdr_mbedtls_err}: no Mbed TLS for the Cortex-M7, so no bootloader and no firmware image")
     return()
   endif()
 else()
