@@ -55,11 +55,16 @@ int wdr_fw_task(wdr_fw *fw)
     while (hal_event_poll(&ev)) {
         dispatch(fw, &ev);
         worked = 1;
+        /* REBOOT's answer has just left: reset before the link is polled again, as a real
+         * board vanishes from the bus (a host reconnecting must meet the new boot) */
+        if (wdr_fw_reboot_service(fw))
+            return 0;
     }
-    worked |= wdr_fw_rx_service(fw);
+    if (!fw->reboot_due) /* resetting: a request now would be answered by a board about to vanish */
+        worked |= wdr_fw_rx_service(fw);
     worked |= wdr_fw_frame_step(fw);
     if (wdr_fw_reboot_service(fw))
-        return 0; /* a simulated board reboots once the task returns */
+        return 0; /* the answer was dropped (no host): reset all the same */
     return worked;
 }
 
