@@ -98,6 +98,8 @@ static int stale_sessions, sessions_after_reboot; /* hosts the old boot still an
 
 static int new_boot(void) { return rebooted && sessions_after_reboot > stale_sessions; }
 static uint32_t got_len, got_crc;
+static uint8_t got_img[8192];
+static int hangup_on_commit, commit_took; /* the link dies on FW_COMMIT; whether the board took it */
 
 static void reply_info(scripted_board *b, const wdr_packet *req)
 {
@@ -128,6 +130,10 @@ static void reply_fw_status(scripted_board *b, const wdr_packet *req)
                                      .image_size = 4096, .sha256 = {0xab, 0xcd}};
     r.slot[1] = (wdr_fw_slot_report){.state = 5, .reject_reason = 2, .ver_major = 2, .ver_build = 2,
                                      .security_counter = 2, .image_size = 8192, .sha256 = {0x12, 0x34}};
+    if (commit_took && got_len >= 200) { /* what the lost commit left: slot B pending with our image */
+        r.slot[1].state = 2;
+        memcpy(r.slot[1].sha256, got_img + got_len - WDR_IMAGE_TRAILER_SIZE + 8, 32);
+    }
     uint8_t p[WDR_FW_STATUS_SIZE];
     wdr_fw_status_pack(&r, p);
     fake_reply(b, req, WDR_ST_OK, p, sizeof p);
@@ -156,11 +162,17 @@ static int script_fw(scripted_board *b, const wdr_packet *req, int n)
         fake_reply(b, req, refuse_begin, NULL, 0);
         break;
     case WDR_CMD_FW_CHUNK:
+        if (got_len + req->h.length - 4 <= sizeof got_img)
+            memcpy(got_img + got_len, req->payload + 4, req->h.length - 4);
         got_crc = wdr_crc32(got_crc, req->payload + 4, req->h.length - 4);
         got_len += req->h.length - 4;
         fake_reply(b, req, WDR_ST_OK, NULL, 0);
         break;
-    case WDR_CMD_FW_COMMIT: reply_commit(b, req); break;
+    case WDR_CMD_FW_COMMIT:
+        if (hangup_on_commit)
+            return -1; /* commit_took says whether the board got that far */
+        reply_commit(b, req);
+        break;
     case WDR_CMD_FW_STATUS: reply_fw_status(b, req); break;
     case WDR_CMD_FW_CONFIRM:
     case WDR_CMD_FW_REVERT: fake_reply(b, req, refuse_confirm, NULL, 0); break;
@@ -180,6 +192,7 @@ static const char *start_board(scripted_board *b, char *addr, size_t cap, int se
     memset(b, 0, sizeof *b);
     b->sessions = sessions;
     refuse_commit = refuse_begin = refuse_confirm = rebooted = stale_sessions = sessions_after_reboot = 0;
+    hangup_on_commit = commit_took = 0;
     proto_minor = 4;
     assert_int_equal(scripted_board_start_listen(b, path, script_fw), 0);
     snprintf(addr, cap, "sim:%s", path);
@@ -260,6 +273,29 @@ static void upload_stores_and_reports_time(void **state)
     assert_int_equal(got_crc, wdr_crc32(0, img, len));
     free(img);
     assert_int_equal(b.opcodes[WDR_CMD_FW_CHUNK], 2);
+}
+
+/* The link dies on FW_COMMIT: wdrctl asks again and says whether the image is pending. */
+static void lost_commit_answer_is_asked_again(void **state)
+{
+    (void)state;
+    for (int took = 1; took >= 0; took--) {
+        scripted_board b;
+        char addr[160];
+        const char *args[] = {"--device", start_board(&b, addr, sizeof addr, 2), "fw", "upload", img_path, NULL};
+        hangup_on_commit = 1;
+        commit_took = took;
+        int rc = run_wdrctl(args);
+        scripted_board_stop(&b);
+        assert_int_equal(b.opcodes[WDR_CMD_FW_STATUS], 1);
+        if (took) {
+            assert_int_equal(rc, EX_OK);
+            assert_has(out_text, "v2.img: pending in slot B (the board reports it after the link failed)");
+        } else {
+            assert_int_equal(rc, EX_IOERR);
+            assert_has(err_text, "v2.img: not pending on the board");
+        }
+    }
 }
 
 typedef struct refusal {
@@ -449,6 +485,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(upload_stores_and_reports_time),
         cmocka_unit_test(each_refusal_names_its_reason),
+        cmocka_unit_test(lost_commit_answer_is_asked_again),
         cmocka_unit_test(bad_files_never_reach_the_board),
         cmocka_unit_test(old_board_is_told_to_flash_by_debugger),
         cmocka_unit_test(status_shows_slots_and_the_fault),
