@@ -58,7 +58,8 @@ typedef struct wdr_fw_sign_params {
 /* Sign app (len bytes, zero padded to 16) into a whole image in *img (malloc'd, free()).
  * Flags: RAM load as asked, DEV_KEY when key is the development key. name: the application
  * file, for messages.
- * @retval WDR_OK  @retval WDR_E_INVAL a parameter out of range or an empty file
+ * @retval WDR_OK  @retval WDR_E_INVAL a parameter out of range, an empty file, an ELF file or an
+ * image already signed
  * @retval WDR_E_TOO_LARGE app over 16 MiB  @retval WDR_E_NOMEM  @retval WDR_E_SIGNATURE libcrypto failed */
 int wdr_fw_sign(const char *name, const uint8_t *app, size_t len, const wdr_fw_sign_params *p, const wdr_fw_key *key,
                 uint8_t **img, size_t *img_len, char *err, size_t cap);

@@ -343,6 +343,17 @@ static void bad_sign_parameters_are_refused(void **state)
     assert_non_null(strstr(err, "header field load_addr: 0x00000401"));
     assert_int_equal(wdr_fw_sign("app.bin", app, 0, &params, &k, &img, &len, err, sizeof err), WDR_E_INVAL);
     assert_non_null(strstr(err, "app.bin: empty file"));
+    const uint8_t elf[8] = {0x7f, 'E', 'L', 'F', 1, 1, 1, 0};
+    assert_int_equal(wdr_fw_sign("app.elf", elf, sizeof elf, &params, &k, &img, &len, err, sizeof err), WDR_E_INVAL);
+    assert_non_null(strstr(err, "app.elf: an ELF file"));
+    uint8_t *signed_once = NULL;
+    size_t once_len = 0;
+    assert_int_equal(wdr_fw_sign("app.bin", app, APP_LEN, &params, &k, &signed_once, &once_len, err, sizeof err),
+                     WDR_OK);
+    assert_int_equal(wdr_fw_sign("app.img", signed_once, once_len, &params, &k, &img, &len, err, sizeof err),
+                     WDR_E_INVAL);
+    assert_non_null(strstr(err, "app.img: already a signed image"));
+    free(signed_once);
     wdr_fw_key_free(&k);
     k = load(DEV_PUB, 0);
     assert_int_equal(wdr_fw_sign("app.bin", app, APP_LEN, &params, &k, &img, &len, err, sizeof err), WDR_E_INVAL);
