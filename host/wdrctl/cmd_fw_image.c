@@ -80,10 +80,16 @@ int wdrctl_fw_check_exit(int rc)
 /* The board named by the build's board file (.../boards/NAME/board.json). */
 static const char *build_board(char *out, size_t cap)
 {
-    const char *path = WDR_DEFAULT_BOARD, *end = strrchr(path, '/'), *start = end;
-    while (start && start > path && start[-1] != '/')
-        start--;
-    snprintf(out, cap, "%.*s", end && start ? (int)(end - start) : 0, start ? start : "");
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s", WDR_DEFAULT_BOARD);
+    char *slash = strrchr(dir, '/');
+    if (slash)
+        *slash = 0; /* the folder of board.json */
+    slash = strrchr(dir, '/');
+    const char *name = slash ? slash + 1 : dir;
+    size_t n = strlen(name) < cap ? strlen(name) : cap - 1;
+    memcpy(out, name, n);
+    out[n] = 0;
     return out;
 }
 
