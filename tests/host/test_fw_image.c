@@ -28,7 +28,7 @@
 #define DEV_PUB WDR_DEV_KEY_DIR "/dev-signing-key.NOT-FOR-PRODUCTION.pub.pem"
 #define APP_LEN 1000u /* padded to 1008 */
 
-static char dir[64], other_key[128], p384_key[128], ed_key[128], junk_key[128];
+static char dir[64], other_key[128], p384_key[128], ed_key[128], junk_key[128], enc_key[128], comp_pub[128];
 static uint8_t app[APP_LEN];
 
 static void write_pkey(const char *path, EVP_PKEY *k)
@@ -56,6 +56,25 @@ static int setup(void **state)
     assert_non_null(f);
     fputs("-----BEGIN PRIVATE KEY-----\nnot base64 at all\n-----END PRIVATE KEY-----\n", f);
     fclose(f);
+    /* the other key encrypted with a passphrase; the development key's public half, compressed */
+    snprintf(enc_key, sizeof enc_key, "%s/encrypted.pem", dir);
+    snprintf(comp_pub, sizeof comp_pub, "%s/compressed.pub.pem", dir);
+    f = fopen(other_key, "r");
+    EVP_PKEY *k = PEM_read_PrivateKey(f, NULL, NULL, NULL);
+    fclose(f);
+    f = fopen(enc_key, "w");
+    assert_int_equal(PEM_write_PrivateKey(f, k, EVP_aes_256_cbc(), (unsigned char *)"secret", 6, NULL, NULL), 1);
+    fclose(f);
+    EVP_PKEY_free(k);
+    f = fopen(DEV_PUB, "r");
+    k = PEM_read_PUBKEY(f, NULL, NULL, NULL);
+    fclose(f);
+    assert_int_equal(EVP_PKEY_set_utf8_string_param(k, "point-format", "compressed"), 1);
+    assert_int_equal(i2d_PUBKEY(k, NULL), 59); /* 91 uncompressed */
+    f = fopen(comp_pub, "w");
+    assert_int_equal(PEM_write_PUBKEY(f, k), 1);
+    fclose(f);
+    EVP_PKEY_free(k);
     for (unsigned i = 0; i < APP_LEN; i++)
         app[i] = (uint8_t)(i * 37u + 11u);
     return 0;
@@ -64,8 +83,8 @@ static int setup(void **state)
 static int teardown(void **state)
 {
     (void)state;
-    const char *names[] = {other_key, p384_key, ed_key, junk_key};
-    for (size_t i = 0; i < 4; i++)
+    const char *names[] = {other_key, p384_key, ed_key, junk_key, enc_key, comp_pub};
+    for (size_t i = 0; i < 6; i++)
         unlink(names[i]);
     rmdir(dir);
     return 0;
@@ -363,9 +382,9 @@ static void bad_sign_parameters_are_refused(void **state)
 static void keys_other_than_p256_are_refused_by_name(void **state)
 {
     (void)state;
-    const char *paths[] = {p384_key, ed_key, junk_key};
-    const char *says[] = {"not an ECDSA P-256 key", "not an ECDSA P-256 key", "not a PEM key"};
-    for (size_t i = 0; i < 3; i++) {
+    const char *paths[] = {p384_key, ed_key, junk_key, enc_key};
+    const char *says[] = {"not an ECDSA P-256 key", "not an ECDSA P-256 key", "not a PEM key", "an encrypted one"};
+    for (size_t i = 0; i < 4; i++) {
         wdr_fw_key k;
         char err[512] = "";
         assert_int_equal(wdr_fw_key_load(paths[i], 0, &k, err, sizeof err), WDR_E_INVAL);
@@ -380,6 +399,12 @@ static void keys_other_than_p256_are_refused_by_name(void **state)
     assert_non_null(strstr(err, "a public key cannot sign"));
     k = load(DEV_PUB, 0);
     assert_true(k.is_dev);
+    /* a public key stored compressed is the same key: the hash is of the uncompressed point */
+    wdr_fw_key c = load(comp_pub, 0);
+    assert_true(c.is_dev);
+    assert_memory_equal(c.hash, k.hash, 32);
+    assert_int_equal(c.point[0], 0x04);
+    wdr_fw_key_free(&c);
     wdr_fw_key_free(&k);
 }
 
