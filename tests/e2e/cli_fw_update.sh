@@ -95,4 +95,18 @@ printf '%s\n' "$out" | grep -q "security floor:   6" || fail "the floor did not 
 printf '%s\n' "$out" | grep -q "development key: not for production" || fail "the development key is not named"
 echo "fw status as a user sees it:"
 printf '%s\n' "$out"
+
+# ---- revert: a v2 of the same counter confirmed, then given up: the next boot runs v1 ----
+kill "$pid"; wait "$pid" 2>/dev/null
+sign same.img 2.0.0+9 5
+"$simboard" --board "$src/boards/$board/board.json" --scene "$src/sim/scenes/window.json" --socket "$d/b.sock" \
+    --flash "$d/flash2.bin" --firmware v1.img > simboard.log 2>&1 &
+pid=$!
+expect 0 "firmware:      1.0.0+1, slot A" "$ctl" --wait 20000 info
+expect 0 "stored in slot B, pending" "$ctl" fw upload same.img
+expect 0 "now v2.0.0+9 in slot B (test boot)" "$ctl" reboot
+expect 0 "confirmed, it stays" "$ctl" fw confirm
+expect 0 "v2.0.0+9 in slot B: given up: the next boot runs the other slot" "$ctl" fw revert
+expect 0 "now v1.0.0+1 in slot A$" "$ctl" reboot
+expect 0 "slot B:           rejected   v2.0.0+9 .*(reverted)" "$ctl" fw status
 echo "ok: field update through wdrctl"
