@@ -151,10 +151,10 @@ static void upload_progress(void *ctx, size_t done, size_t total)
  * start, 8 data, stop; the host waits for each chunk's answer, so both directions count). */
 static void print_upload_time(const wdrctl_conn *conn, size_t len, uint64_t tx, uint64_t rx, int64_t ms)
 {
-    double bits = 10.0 * (double)(tx + rx);
-    printf("%zu image bytes in %.3f s over %s (%.2f MB/s); on the link %llu bytes out, %llu back\n", len,
-           (double)ms / 1000.0, wdr_transport_name(conn->t), ms > 0 ? (double)len / 1000.0 / (double)ms : 0.0,
-           (unsigned long long)tx, (unsigned long long)rx);
+    double bits = 10.0 * (double)(tx + rx), kb_s = ms > 0 ? (double)len / (double)ms : 0.0; /* bytes/ms */
+    printf("%zu image bytes in %.3f s over %s (%.*f %s); on the link %llu bytes out, %llu back\n", len,
+           (double)ms / 1000.0, wdr_transport_name(conn->t), kb_s < 1000 ? 1 : 2, kb_s < 1000 ? kb_s : kb_s / 1000,
+           kb_s < 1000 ? "kB/s" : "MB/s", (unsigned long long)tx, (unsigned long long)rx);
     printf("the same bytes on a UART (wire time alone): %.1f s at 115200 baud, %.2f s at 921600 baud\n",
            bits / 115200.0, bits / 921600.0);
 }
