@@ -35,7 +35,10 @@ static int check_params(const char *name, const uint8_t *app, size_t len, const 
         snprintf(err, cap, "%s: empty file: no application to sign", name);
         return WDR_E_INVAL;
     }
-    if (len >= 4 && !memcmp(app, "\x7f" "ELF", 4)) {
+    if (len >= 4 && !memcmp(app,
+                            "\x7f"
+                            "ELF",
+                            4)) {
         snprintf(err, cap, "%s: an ELF file: sign the application's raw .bin (objcopy -O binary)", name);
         return WDR_E_INVAL;
     }
@@ -44,8 +47,7 @@ static int check_params(const char *name, const uint8_t *app, size_t len, const 
         return WDR_E_INVAL;
     }
     if (len > WDR_IMAGE_MAX_SIZE) {
-        snprintf(err, cap, "%s: %zu bytes; an image holds at most %u application bytes", name, len,
-                 WDR_IMAGE_MAX_SIZE);
+        snprintf(err, cap, "%s: %zu bytes; an image holds at most %u application bytes", name, len, WDR_IMAGE_MAX_SIZE);
         return WDR_E_TOO_LARGE;
     }
     if (!board_name_ok(p->board)) {
@@ -96,7 +98,8 @@ static wdr_image_header header_for(const wdr_fw_sign_params *p, const wdr_fw_key
                           .load_addr = p->load_addr,
                           .version = p->version,
                           .security_counter = p->security_counter,
-                          .flags = (p->ram_load ? WDR_IMAGE_F_RAM_LOAD : 0u) | (key->is_dev ? WDR_IMAGE_F_DEV_KEY : 0u)};
+                          .flags =
+                              (p->ram_load ? WDR_IMAGE_F_RAM_LOAD : 0u) | (key->is_dev ? WDR_IMAGE_F_DEV_KEY : 0u)};
     snprintf(h.board, sizeof h.board, "%s", p->board);
     return h;
 }

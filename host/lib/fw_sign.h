@@ -13,12 +13,12 @@
 /* ---- Keys (fw_key.c) ------------------------------------------------------------------------ */
 
 typedef struct wdr_fw_key {
-    void *pkey;                           /* EVP_PKEY, owned */
-    int has_private;                      /* it can sign */
-    int is_dev;                           /* the tree's development key: not for production */
-    uint8_t point[WDR_P256_PUBKEY_SIZE];  /* 0x04 || X || Y */
-    uint8_t hash[WDR_SHA256_SIZE];        /* SHA-256 of point: the trailer's key hash */
-    char name[256];                       /* the file it came from, for messages */
+    void *pkey;                          /* EVP_PKEY, owned */
+    int has_private;                     /* it can sign */
+    int is_dev;                          /* the tree's development key: not for production */
+    uint8_t point[WDR_P256_PUBKEY_SIZE]; /* 0x04 || X || Y */
+    uint8_t hash[WDR_SHA256_SIZE];       /* SHA-256 of point: the trailer's key hash */
+    char name[256];                      /* the file it came from, for messages */
 } wdr_fw_key;
 
 /* Load a P-256 key from a PEM file: a private key when need_private, else a private or a
@@ -50,9 +50,9 @@ void wdr_fw_version_format(const wdr_image_version *v, char *out, size_t cap);
 typedef struct wdr_fw_sign_params {
     wdr_image_version version;
     uint32_t security_counter;
-    uint32_t load_addr;       /* 4-aligned */
-    const char *board;        /* 1..15 printable ASCII characters */
-    int ram_load;             /* WDR_IMAGE_F_RAM_LOAD: our bootloader copies every image */
+    uint32_t load_addr; /* 4-aligned */
+    const char *board;  /* 1..15 printable ASCII characters */
+    int ram_load;       /* WDR_IMAGE_F_RAM_LOAD: our bootloader copies every image */
 } wdr_fw_sign_params;
 
 /* Sign app (len bytes, zero padded to 16) into a whole image in *img (malloc'd, free()).

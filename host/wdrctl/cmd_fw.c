@@ -231,7 +231,8 @@ int cmd_fw_upload(int argc, char **argv)
 
 /* ---- fw status -------------------------------------------------------------------------------------- */
 
-static const char *const slot_states[] = {"empty", "incomplete", "pending", "testing", "confirmed", "rejected", "invalid"};
+static const char *const slot_states[] = {"empty",     "incomplete", "pending", "testing",
+                                          "confirmed", "rejected",   "invalid"};
 static const char *const reset_causes[] = {"power-on", "software", "watchdog", "fault", "unknown"};
 static const char *const reject_reasons[] = {"", "unconfirmed after its test boots", "reverted", "failed verification"};
 

@@ -215,8 +215,11 @@ static void print_json(const char *path, const wdr_fw_image_report *r, const wdr
     wdr_fw_hex(r->trl.key_hash, WDR_SHA256_SIZE, hex);
     cJSON_AddStringToObject(o, "key_hash", hex);
     cJSON_AddBoolToObject(o, "hash_ok", r->hash_ok);
-    cJSON_AddStringToObject(o, "signature",
-                            !r->key_checked ? "not checked" : !r->key_matches ? "other key" : r->signature_ok ? "holds" : "fails");
+    const char *verdict = !r->key_checked  ? "not checked"
+                          : !r->key_matches ? "other key"
+                          : r->signature_ok ? "holds"
+                                            : "fails";
+    cJSON_AddStringToObject(o, "signature", verdict);
     if (key)
         cJSON_AddStringToObject(o, "key", key->name);
     char *text = cJSON_Print(o);

@@ -81,7 +81,7 @@ expect 0 "slot B:           pending    v2.0.0+2" "$ctl" fw status
 expect 0 "was v1.0.0+1 in slot A, now v2.0.0+2 in slot B (test boot)" "$ctl" reboot
 expect 0 "firmware:      2.0.0+2, slot B, test boot" "$ctl" info
 expect 0 "slot B:           testing    v2.0.0+2" "$ctl" fw status
-expect 65 "v3.img: refused by the board: the running image is a test boot: confirm it (wdrctl fw confirm) or revert it" \
+expect 65 "v3.img: refused by the board: the running image is a test boot: confirm it (wdrctl fw confirm)" \
     "$ctl" fw upload v3.img
 expect 0 "v2.0.0+2 in slot B (test boot): confirmed, it stays" "$ctl" fw confirm
 # v1's counter (5) is below the floor v2's confirm raised (6): nothing valid to go back to

@@ -291,10 +291,10 @@ static void other_key_fails_the_key_hash(void **state)
 
 typedef struct bad_case {
     const char *what;
-    size_t at;          /* byte to set (SIZE_MAX: none) */
-    uint32_t value;     /* little-endian, width bytes */
+    size_t at;      /* byte to set (SIZE_MAX: none) */
+    uint32_t value; /* little-endian, width bytes */
     int width;
-    long len_delta;     /* bytes added (or removed) at the end */
+    long len_delta; /* bytes added (or removed) at the end */
     int code;
     const char *message;
 } bad_case;
@@ -312,12 +312,14 @@ static void malformed_fields_are_named(void **state)
         {"image size 17", 8, 17, 4, 0, WDR_E_INVAL, "APP.img: header field image_size: 17 is not a multiple of 16"},
         {"image size 0", 8, 0, 4, 0, WDR_E_INVAL, "APP.img: header field image_size: 0 is below 16"},
         {"image size huge", 8, (16u << 20) + 16u, 4, 0, WDR_E_TOO_LARGE, "header field image_size: 16777232 is over"},
-        {"load addr", 12, 0x400002u, 4, 0, WDR_E_INVAL, "APP.img: header field load_addr: 0x00400002 is not a multiple of 4"},
+        {"load addr", 12, 0x400002u, 4, 0, WDR_E_INVAL,
+         "APP.img: header field load_addr: 0x00400002 is not a multiple of 4"},
         {"flags", 28, 0x11u, 4, 0, WDR_E_INVAL, "APP.img: header field flags: 0x00000011 has unknown bits 0x00000010"},
         {"board blank", 32, ' ', 1, 0, WDR_E_INVAL, "APP.img: header field board: byte 0 is 0x20"},
         {"board tail", 47, 'x', 1, 0, WDR_E_INVAL, "APP.img: header field board: byte 15 after the name's NUL is 0x78"},
         {"reserved", 50, 1, 1, 0, WDR_E_INVAL, "APP.img: header field reserved: byte 50 is 0x01"},
-        {"truncated", SIZE_MAX, 0, 0, -1, WDR_E_TRUNCATED, "APP.img: 1207 bytes, but header field image_size says 1208"},
+        {"truncated", SIZE_MAX, 0, 0, -1, WDR_E_TRUNCATED,
+         "APP.img: 1207 bytes, but header field image_size says 1208"},
         {"trailing bytes", SIZE_MAX, 0, 0, 16, WDR_E_INVAL, "bytes after the trailer"},
         {"trailer magic", trl, 0, 4, 0, WDR_E_CORRUPT, "APP.img: trailer field magic: 0x00000000, not 0x4c544957"},
         {"trailer size", trl + 4, 100, 2, 0, WDR_E_INVAL, "APP.img: trailer field trailer_size: 100, not 136"},
@@ -419,8 +421,9 @@ static void versions_parse_strictly(void **state)
     assert_int_equal(v.build, 4294967295u);
     wdr_fw_version_format(&v, text, sizeof text);
     assert_string_equal(text, "255.255.65535+4294967295");
-    const char *bad[] = {"", "1", "1.2", "1.2.3.4", "256.0.0", "0.256.0", "0.0.65536", "1.2.3+", "1.2.3+4294967296",
-                         "-1.2.3", " 1.2.3", "1.2.3 ", "1.2.x", "1..3", "1.2.3-rc1"};
+    const char *bad[] = {
+        "",       "1",      "1.2",    "1.2.3.4", "256.0.0", "0.256.0",  "0.0.65536", "1.2.3+", "1.2.3+4294967296",
+        "-1.2.3", " 1.2.3", "1.2.3 ", "1.2.x",   "1..3",    "1.2.3-rc1"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         if (wdr_fw_version_parse(bad[i], &v) != WDR_E_INVAL)
             fail_msg("'%s' parsed", bad[i]);
@@ -429,14 +432,10 @@ static void versions_parse_strictly(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(sign_and_check_round_trip),
-        cmocka_unit_test(other_key_round_trip_is_not_dev),
-        cmocka_unit_test(flipped_byte_fails_the_hash),
-        cmocka_unit_test(flipped_signature_byte_fails_the_signature),
-        cmocka_unit_test(other_key_fails_the_key_hash),
-        cmocka_unit_test(malformed_fields_are_named),
-        cmocka_unit_test(bad_sign_parameters_are_refused),
-        cmocka_unit_test(keys_other_than_p256_are_refused_by_name),
+        cmocka_unit_test(sign_and_check_round_trip),       cmocka_unit_test(other_key_round_trip_is_not_dev),
+        cmocka_unit_test(flipped_byte_fails_the_hash),     cmocka_unit_test(flipped_signature_byte_fails_the_signature),
+        cmocka_unit_test(other_key_fails_the_key_hash),    cmocka_unit_test(malformed_fields_are_named),
+        cmocka_unit_test(bad_sign_parameters_are_refused), cmocka_unit_test(keys_other_than_p256_are_refused_by_name),
         cmocka_unit_test(versions_parse_strictly),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
