@@ -56,25 +56,26 @@ static int newest_on_test(const wdr_boot_decision *d)
     return wdr_image_version_cmp(&d->slots[p].hdr.version, &d->slots[t].hdr.version) > 0 ? p : t;
 }
 
-/* A test boot: its ATTEMPT is on flash before the decision says so. */
+/* A test boot: its ATTEMPT is on flash before the decision says so. A slot whose ATTEMPT the
+ * flash refuses is passed over (never booted uncounted), and the other one, if on test, tried. */
 static int try_test_boot(const wdr_boot_flash *f, const wdr_boot_layout *l, wdr_boot_decision *d)
 {
-    int s = newest_on_test(d);
-    if (s < 0)
-        return WDR_OK;
-    wdr_boot_slot *slot = &d->slots[s];
-    int rc = boot_log_put(f, l->state_addr[s], l->block_size, slot->log_next, WDR_REC_ATTEMPT, slot->attempts + 1u);
-    if (refused(rc)) {
-        slot->state = WDR_SLOT_REJECTED; /* cannot count its boots: never boot it uncounted */
+    for (int s; (s = newest_on_test(d)) >= 0;) {
+        wdr_boot_slot *slot = &d->slots[s];
+        int rc = boot_log_put(f, l->state_addr[s], l->block_size, slot->log_next, WDR_REC_ATTEMPT, slot->attempts + 1u);
+        if (refused(rc)) {
+            slot->state = WDR_SLOT_REJECTED; /* for this decision only: it cannot be counted */
+            continue;
+        }
+        if (rc != WDR_OK)
+            return rc;
+        slot->log_next += WDR_BOOT_RECORD_SIZE;
+        slot->attempts++;
+        slot->state = WDR_SLOT_TESTING;
+        d->slot = s;
+        d->testing = true;
         return WDR_OK;
     }
-    if (rc != WDR_OK)
-        return rc;
-    slot->log_next += WDR_BOOT_RECORD_SIZE;
-    slot->attempts++;
-    slot->state = WDR_SLOT_TESTING;
-    d->slot = s;
-    d->testing = true;
     return WDR_OK;
 }
 

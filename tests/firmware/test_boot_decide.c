@@ -195,6 +195,23 @@ static void refused_records_still_boot(void **state)
     assert_int_equal(floor_now(), 5);
 }
 
+/* Both slots on test (only a hostile or odd flash has that), the newer one's log full: the
+ * other is tested rather than nothing booting. */
+static void full_log_passes_to_the_other_test(void **state)
+{
+    (void)state;
+    bt_flash_init(&fl, 1024, 16);
+    assert_int_equal(bt_upload(&fl, 0, v1, v1_len, 512, &pol), WDR_OK);
+    assert_int_equal(bt_upload(&fl, 1, v2, v2_len, 512, &pol), WDR_OK);
+    uint8_t junk[16];
+    memset(junk, 0x33, sizeof junk);
+    for (uint32_t at = 2 * 16; at < fl.l.block_size; at += 16)
+        assert_int_equal(nor_emul_prog(&fl.nor, fl.l.state_addr[1] + at, junk, 16), WDR_OK);
+    wdr_boot_decision d = decide();
+    assert_int_equal(d.slot, 0);
+    assert_true(d.testing);
+}
+
 int main(void)
 {
     bt_key_dev(&dev);
@@ -211,6 +228,7 @@ int main(void)
         cmocka_unit_test(nothing_bootable),
         cmocka_unit_test(boot_completes_a_cut_confirm),
         cmocka_unit_test(refused_records_still_boot),
+        cmocka_unit_test(full_log_passes_to_the_other_test),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
