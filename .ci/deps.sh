@@ -3,10 +3,11 @@
 # the exact apt-get line and fails. Sourced by .ci/demo and .ci/test.
 WDR_PACKAGES="build-essential cmake pkg-config libcjson-dev libpng-dev libstb-dev libopenexr-dev \
 libcmocka-dev libusb-1.0-0-dev libgpiod-dev gnuplot-nox gcc-arm-none-eabi libnewlib-arm-none-eabi \
-clang-tidy cppcheck groff-base qemu-system-arm \
+clang-tidy cppcheck groff-base qemu-system-arm gdb-multiarch \
 qemu-system-x86 busybox-static cpio kmod clang-14 libclang-rt-14-dev \
 libmbedtls-dev libssl-dev openssl valgrind"
-# tests/vm also fetches Debian's current kernel and its headers itself (apt-get download into the
+# firmware/boot/fetch_mbedtls.sh fetches the source of Debian's mbedtls for the Cortex-M7 into build-m7
+# (apt-get source through a private sources list, no install). tests/vm also fetches Debian's current kernel and its headers itself (apt-get download into the
 # build folder, no install), and builds its module with the kernel's compiler (gcc-12).
 
 wdr_missing_packages() {

@@ -165,6 +165,53 @@ static void boot_completes_a_cut_confirm(void **state)
     assert_int_equal(d.slot, 1);
 }
 
+/* A state block that refuses every program: the board still boots, never the uncounted test. */
+static void refused_records_still_boot(void **state)
+{
+    (void)state;
+    factory();
+    assert_int_equal(decide().slot, 0);
+    assert_int_equal(bt_upload(&fl, 1, v2, v2_len, 512, &pol), WDR_OK);
+    for (uint64_t op = 1; op <= 3; op++) { /* the ATTEMPT, then two more boots' */
+        nor_emul_fail_at(&fl.nor, fl.nor.ops + 1);
+        wdr_boot_decision d = decide();
+        assert_int_equal(d.slot, 0);
+        assert_false(d.testing);
+    }
+    wdr_boot_decision d = decide(); /* the flash works again: the test boot happens, counted */
+    assert_int_equal(d.slot, 1);
+    assert_int_equal(d.slots[1].attempts, 1);
+    /* a floor raise that fails: the confirmed image boots, the next boot raises the floor */
+    bt_image_spec s = bt_spec(3, 5, 2048);
+    uint8_t v3[8192];
+    size_t v3_len = bt_image_build(v3, sizeof v3, &s, &dev, NULL);
+    factory();
+    bt_flash_image(&fl, 1, v3, v3_len);
+    nor_emul_fail_at(&fl.nor, fl.nor.ops + 1);
+    d = decide();
+    assert_int_equal(d.slot, 1);
+    assert_int_equal(floor_now(), 0);
+    assert_int_equal(decide().floor, 5);
+    assert_int_equal(floor_now(), 5);
+}
+
+/* Both slots on test (only a hostile or odd flash has that), the newer one's log full: the
+ * other is tested rather than nothing booting. */
+static void full_log_passes_to_the_other_test(void **state)
+{
+    (void)state;
+    bt_flash_init(&fl, 1024, 16);
+    assert_int_equal(bt_upload(&fl, 0, v1, v1_len, 512, &pol), WDR_OK);
+    assert_int_equal(bt_upload(&fl, 1, v2, v2_len, 512, &pol), WDR_OK);
+    uint8_t junk[16];
+    memset(junk, 0x33, sizeof junk);
+    for (uint32_t at = 2 * 16; at < fl.l.block_size; at += 16)
+        assert_int_equal(nor_emul_prog(&fl.nor, fl.l.state_addr[1] + at, junk, 16), WDR_OK);
+    wdr_boot_decision d = decide();
+    assert_int_equal(d.slot, 0);
+    assert_true(d.testing);
+}
+
 int main(void)
 {
     bt_key_dev(&dev);
@@ -180,6 +227,8 @@ int main(void)
         cmocka_unit_test(invalid_images_are_rejected),
         cmocka_unit_test(nothing_bootable),
         cmocka_unit_test(boot_completes_a_cut_confirm),
+        cmocka_unit_test(refused_records_still_boot),
+        cmocka_unit_test(full_log_passes_to_the_other_test),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

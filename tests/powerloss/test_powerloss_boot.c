@@ -8,7 +8,8 @@
  * Power is cut at every flash operation of every step, with every tear shape; then the board
  * reboots (wdr_boot_decide) and whoever ran the step retries it (the upload resent, confirm or
  * revert repeated), with a second cut, of every shape, at every operation of that recovery;
- * then it must boot what follows the step, and boots three more times with nobody confirming. After every cut: no slot
+ * then it must boot what follows the step, and boots three more times with nobody confirming.
+ * The same with an I/O error (flash untouched, power on) at every operation of every step. After every cut: no slot
  * whose log says bootable fails its verification (a downgrade excepted). At every boot: an
  * image runs, it is byte for byte v1 in A or v2 in B (never the rejected v3, never a mix), it
  * verifies, the floor never decreases, an unconfirmed v2 runs at most 3 times per upload, a v2
@@ -74,7 +75,7 @@ static uint8_t base_bytes[BLOCK * BLOCKS], base_programmed[BLOCK * BLOCKS / 16];
 static checkpoint cps[8];
 static const scenario *sc;
 static long fault_points, violations, runs;
-static bool with_signature;
+static bool with_signature, io_pass; /* io_pass: the faults are I/O errors, not cuts */
 
 static void violation(const char *what, int a, int b)
 {
@@ -134,7 +135,7 @@ static bool boot(history *h, outcome *out)
     int rc = wdr_boot_decide(&fl.f, &fl.l, &pol, &d);
     if (rc != WDR_OK) {
         if (!fl.nor.power_lost)
-            violation("decide failed without a power cut", rc, 0);
+            violation("decide failed without a power cut", rc, 0); /* I/O errors included */
         return false;
     }
     *out = (outcome){0, d.testing};
@@ -175,19 +176,19 @@ static bool run_step(int i, history *h)
     switch (sc->steps[i].kind) {
     case UPLOAD:
         if (bt_upload(&fl, 1, sc->v2, sc->v2_len, CHUNK, &pol) != WDR_OK) {
-            if (!fl.nor.power_lost)
+            if (!fl.nor.power_lost && !io_pass)
                 violation("upload refused without a power cut", i, 0);
-            h->upload_cut = fl.nor.power_lost;
+            h->upload_cut = true;
         } else
             *h = (history){.running = h->running, .floor_max = h->floor_max}; /* a new v2: its own 3 tests */
         break;
     case BOOT: boot(h, &o); break;
     case CONFIRM:
-        if (wdr_boot_confirm(&fl.f, &fl.l, &pol, h->running) != WDR_OK && !fl.nor.power_lost)
+        if (wdr_boot_confirm(&fl.f, &fl.l, &pol, h->running) != WDR_OK && !fl.nor.power_lost && !io_pass)
             violation("confirm refused", h->running, 0);
         break;
     case REVERT:
-        if (wdr_boot_revert(&fl.f, &fl.l, &pol, h->running) != WDR_OK && !fl.nor.power_lost)
+        if (wdr_boot_revert(&fl.f, &fl.l, &pol, h->running) != WDR_OK && !fl.nor.power_lost && !io_pass)
             violation("revert refused", h->running, 0);
         break;
     }
@@ -226,6 +227,20 @@ static void reference_run(void)
         before = sc->steps[i].after;
     }
     assert_int_equal(violations, 0);
+}
+
+/* The board's rest after a fault in step i: it must then boot what follows the step, and boot
+ * AFTER_BOOTS times with nobody confirming. */
+static void after_recovery(int i, history *h)
+{
+    outcome o = {0, false};
+    if (!boot(h, &o))
+        violation("a boot without a cut failed", i, 0);
+    else if (!same(o, sc->steps[i].after))
+        violation("after the recovery the board does not boot what follows the step", o.major, o.testing);
+    for (int b = 1; b < AFTER_BOOTS; b++)
+        if (!boot(h, &o))
+            violation("a boot without a cut failed", i, b);
 }
 
 /* The board after a cut in step i comes back: it boots (its outcome is what it ran before or
@@ -277,16 +292,33 @@ static bool fault_point(int i, uint64_t op, int tear, uint64_t op2, int tear2)
         if (!recover(i, &h))
             violation("a recovery without a cut failed", i, (int)op);
     }
-    outcome o = {0, false};
-    if (!boot(&h, &o))
-        violation("a boot without a cut failed", i, 0);
-    else if (!same(o, sc->steps[i].after))
-        violation("after the recovery the board does not boot what follows the step", o.major, o.testing);
-    for (int b = 1; b < AFTER_BOOTS; b++)
-        if (!boot(&h, &o))
-            violation("a boot without a cut failed", i, b);
+    after_recovery(i, &h);
     fault_points++;
     return true;
+}
+
+/* An I/O error (flash untouched, power on) at operation op of step i; the step's caller sees
+ * it fail (a boot decides without that record), the board resets and the step is retried. */
+static void io_fault_point(int i, uint64_t op)
+{
+    runs++;
+    with_signature = runs % SIGNATURE_EVERY == 0;
+    io_pass = true;
+    const checkpoint *c = &cps[i];
+    restore(c->bytes, c->programmed);
+    fl.nor.ops = c->ops;
+    history h = c->h;
+    nor_emul_fail_at(&fl.nor, c->ops + op);
+    run_step(i, &h);
+    if (fl.nor.fail_at)
+        violation("the I/O error did not fire", i, (int)op);
+    nor_emul_fail_at(&fl.nor, 0);
+    check_after_cut();
+    io_pass = false;
+    if (!recover(i, &h))
+        violation("a recovery without a fault failed", i, (int)op);
+    after_recovery(i, &h);
+    fault_points++;
 }
 
 /* Operations of step i in the uncut run. */
@@ -312,6 +344,8 @@ static void run_scenario(const scenario *s)
         }
         total_ops += n;
         for (uint64_t op = 1; op <= n; op++)
+            io_fault_point(i, op);
+        for (uint64_t op = 1; op <= n; op++)
             for (int tear = NOR_TEAR_NONE; tear <= NOR_TEAR_BITS; tear++) {
                 fault_point(i, op, tear, 0, 0);
                 for (int tear2 = NOR_TEAR_NONE; tear2 <= NOR_TEAR_BITS; tear2++)
@@ -319,8 +353,8 @@ static void run_scenario(const scenario *s)
                         ;
             }
     }
-    printf("powerloss boot %s: %llu flash operations, %ld fault points (single and double cuts, 4 tear "
-           "shapes), %ld violations\n",
+    printf("powerloss boot %s: %llu flash operations, %ld fault points (an I/O error at each; single and "
+           "double cuts, 4 tear shapes), %ld violations\n",
            sc->name, (unsigned long long)total_ops, fault_points - before, violations - v_before);
 }
 
