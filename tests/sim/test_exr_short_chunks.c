@@ -10,6 +10,7 @@
 #include <cmocka.h>
 #include "exr_read.h"
 #include "wdr_err.h"
+#include <openexr.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -126,6 +127,49 @@ static void short_chunks_are_damaged(void **state)
     }
 }
 
+/* A 20x12 tiled (16x16 tiles) uncompressed float Y image; tile (1,0) holds `short_by` bytes too few. */
+static const char *tiled_file(const char *name, uint64_t short_by)
+{
+    static char path[128];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    exr_context_t ctx;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    int part;
+    assert_int_equal(exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init), 0);
+    assert_int_equal(exr_add_part(ctx, "main", EXR_STORAGE_TILED, &part), 0);
+    assert_int_equal(exr_initialize_required_attr_simple(ctx, part, 20, 12, EXR_COMPRESSION_NONE), 0);
+    assert_int_equal(exr_set_tile_descriptor(ctx, part, 16, 16, EXR_TILE_ONE_LEVEL, EXR_TILE_ROUND_DOWN), 0);
+    exr_add_channel(ctx, part, "Y", EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    assert_int_equal(exr_write_header(ctx), 0);
+    static float px[16 * 12];
+    for (int i = 0; i < 16 * 12; i++)
+        px[i] = 1.0f + (float)i;
+    assert_int_equal(exr_write_tile_chunk(ctx, part, 0, 0, 0, 0, px, 16 * 12 * 4), 0);
+    assert_int_equal(exr_write_tile_chunk(ctx, part, 1, 0, 0, 0, px, 4 * 12 * 4 - short_by), 0);
+    assert_int_equal(exr_finish(&ctx), 0);
+    return path;
+}
+
+static void tiled_chunks_checked(void **state)
+{
+    (void)state;
+    float *lum = NULL;
+    int w, h;
+    char err[512];
+    int rc = wdr_exr_read(tiled_file("tiled.exr", 0), &lum, &w, &h, err, sizeof err);
+    if (rc != WDR_OK)
+        fail_msg("whole tiles: %s", err);
+    assert_true(w == 20 && h == 12 && lum[0] == 1.0f);
+    free(lum);
+    lum = NULL;
+    const char *path = tiled_file("tiled_short.exr", 40);
+    assert_int_equal(wdr_exr_read(path, &lum, &w, &h, err, sizeof err), WDR_E_INVAL);
+    print_message("short tile: %s\n", err);
+    assert_null(lum);
+    assert_non_null(strstr(err, "damaged"));
+    assert_non_null(strstr(err, "x 1, y 0"));
+}
+
 static void many_parts_refused_first(void **state)
 {
     (void)state;
@@ -175,6 +219,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(whole_chunks_read),
         cmocka_unit_test(short_chunks_are_damaged),
+        cmocka_unit_test(tiled_chunks_checked),
         cmocka_unit_test(many_parts_refused_first),
     };
     return cmocka_run_group_tests(tests, make_dir, remove_dir);
