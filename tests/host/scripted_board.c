@@ -1,5 +1,5 @@
 /* Scripted fake board (see scripted_board.h). */
-#define _GNU_SOURCE /* posix_openpt, ptsname_r */
+#define _XOPEN_SOURCE 600 /* posix_openpt, grantpt, unlockpt, ptsname */
 #include "scripted_board.h"
 #include "crc32.h"
 #include "wdr_lut.h"
@@ -251,8 +251,10 @@ int scripted_board_start_pty(scripted_board *b, char *slave_path, size_t cap, fa
     init(b, script);
     b->listen_fd = -1;
     b->fd = posix_openpt(O_RDWR | O_NOCTTY);
-    if (b->fd < 0 || grantpt(b->fd) < 0 || unlockpt(b->fd) < 0 || ptsname_r(b->fd, slave_path, cap) != 0)
+    const char *name = b->fd < 0 || grantpt(b->fd) < 0 || unlockpt(b->fd) < 0 ? NULL : ptsname(b->fd);
+    if (!name || strlen(name) >= cap)
         return -1;
+    memcpy(slave_path, name, strlen(name) + 1);
     b->pty_slave = open(slave_path, O_RDWR | O_NOCTTY);
     struct termios tio;
     if (b->pty_slave < 0 || tcgetattr(b->pty_slave, &tio) < 0)

@@ -5,7 +5,6 @@
  * the exit code and a message naming what was seen, and prints the wall time. The only bound on
  * time is the hang guard (CHILD_DEADLINE_S, and the test's CTest TIMEOUT): a command that never
  * ends fails, one that is slow on a loaded machine does not. */
-#define _GNU_SOURCE
 #include "scripted_board.h"
 #include "crc32.h"
 #include "wdr_bytes.h"
@@ -375,7 +374,7 @@ static int full_tcp_listener(int *port, int fillers[2])
     *port = ntohs(sa.sin_port);
     for (int i = 0; i < 2; i++) {
         fillers[i] = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK, 0);
-        connect(fillers[i], (struct sockaddr *)&sa, sizeof sa); /* the second stays in SYN-SENT */
+        (void)connect(fillers[i], (struct sockaddr *)&sa, sizeof sa); /* the second stays in SYN-SENT */
     }
     usleep(50000);
     return fd;
