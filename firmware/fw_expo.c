@@ -26,9 +26,9 @@ static uint32_t tick_for_gain(uint32_t own_ps, int32_t gain_q8)
         return 0u; /* overflows 32 bits */
     if (x64 < -48 * 256)
         return 0u; /* below 1 ps */
-    int32_t x = (int32_t)x64;
-    int32_t n = x >> 8; /* floor: -48..39 */
-    uint32_t f = (uint32_t)x & 255u, i = f >> 4, r = f & 15u;
+    uint32_t biased = (uint32_t)(x64 + 48 * 256); /* 0..88*256-1: no shift of a negative value */
+    int32_t n = (int32_t)(biased >> 8) - 48;      /* floor of x64 / 256: -48..39 */
+    uint32_t f = biased & 255u, i = f >> 4, r = f & 15u;
     uint32_t frac = exp2_q15[i] + (((uint32_t)(exp2_q15[i + 1] - exp2_q15[i]) * r) >> 4);
     uint64_t t = (uint64_t)own_ps * frac; /* Q15 */
     t = n >= 15 ? t << (n - 15) : t >> (15 - n); /* shifts 0..24 and 1..63 */
