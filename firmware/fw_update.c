@@ -42,7 +42,7 @@ static void policy_of(const wdr_fw *fw, wdr_boot_policy *pol)
  * (none: this board has no image flash, FW_* answer UNSUPPORTED). */
 void wdr_fw_update_boot(wdr_fw *fw)
 {
-    hal_flash_geometry g;
+    hal_flash_geometry g = {0, 0, 0};
     fw->booted = hal_boot_record_get(&fw->boot_rec) == WDR_OK;
     if (fw->booted && fw->boot_rec.slot > 1)
         fw->booted = false; /* a record this firmware cannot act on: run as if unbooted */
@@ -50,7 +50,7 @@ void wdr_fw_update_boot(wdr_fw *fw)
     fw->img_ok = hal_image_flash_geometry_get(&g) == WDR_OK && wdr_boot_layout_init(&fw->img_layout, &g) == WDR_OK;
     fw->img_flash.geo = g;
     wdr_boot_upload_abort(&fw->img_up);
-    fw->reboot_due = false;
+    fw->reboot_due = fw->reverted = false;
 }
 
 void wdr_fw_update_abort(wdr_fw *fw) { wdr_boot_upload_abort(&fw->img_up); }
@@ -114,8 +114,9 @@ static int begin_gate(const wdr_fw *fw, const wdr_packet *pkt)
         return WDR_ST_UNSUPPORTED;
     if (wdr_fw_busy(fw))
         return WDR_ST_BUSY;
-    if (testing(fw))
-        return WDR_ST_BAD_STATE; /* confirm or revert first: the other slot is the way back */
+    if (testing(fw) || fw->reverted)
+        return WDR_ST_BAD_STATE; /* confirm or revert first, and reboot after a revert: until then the
+                                    other slot is the only way back */
     if (wdr_get_u32(pkt->payload) == 0)
         return WDR_ST_BAD_LENGTH;
     return WDR_ST_OK;
@@ -296,6 +297,8 @@ void wdr_fw_cmd_fw_revert(wdr_fw *fw, const wdr_packet *pkt)
     int st = running_gate(fw, pkt);
     if (!st)
         st = wdr_status_from_err(wdr_boot_revert(&fw->img_flash, &fw->img_layout, &pol, fw->boot_rec.slot));
+    if (!st)
+        fw->reverted = true; /* an upload now would erase the slot the next boot needs */
     reply_status(fw, pkt, st);
 }
 

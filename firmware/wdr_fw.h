@@ -96,6 +96,7 @@ typedef struct wdr_fw {
     bool booted;                  /* boot_rec holds the bootloader's record */
     wdr_boot_record boot_rec;
     bool reboot_due;              /* REBOOT answered: reset once the answer has left */
+    bool reverted;                /* FW_REVERT done: the other slot is the next boot, uploads wait */
 } wdr_fw;
 
 /* Start from whatever flash holds: read the board, check every stored table, activate the

@@ -34,7 +34,7 @@ _Static_assert(sizeof(mbedtls_sha256_context) <= sizeof(((wdr_sha256 *)0)->opaqu
                "wdr_sha256 too small for Mbed TLS's context");
 _Static_assert(_Alignof(mbedtls_sha256_context) <= _Alignof(wdr_sha256), "wdr_sha256 under-aligned");
 
-static mbedtls_sha256_context *ctx_of(wdr_sha256 *h) { return (mbedtls_sha256_context *)(void *)h->opaque; }
+static mbedtls_sha256_context *ctx_of(wdr_sha256 *h) { return (mbedtls_sha256_context *)(void *)h; }
 
 /* With a valid context these calls cannot fail (no hardware accelerator is configured). */
 void wdr_sha256_begin(wdr_sha256 *h)

@@ -1,14 +1,19 @@
 /* The bootloader's decision at every reset (SPEC.md, "Boot decision"). Records first, then
- * the answer: a cut before the answer repeats a decision at least as safe. */
+ * the answer: a cut before the answer repeats a decision at least as safe. A record the flash
+ * refuses (its log full, or the program failing) makes the decision more careful, never stops
+ * it: a worn state block must not leave a board that boots nothing. */
 #include "boot_internal.h"
 #include "wdr_err.h"
 
-/* REJECTED into a slot's log; a full log cannot take it, but the slot is not booted now
- * either, and the next boot finds the same. */
+/* The record could not be written, but power is still there: decide without it. */
+static bool refused(int rc) { return rc == WDR_E_TOO_LARGE || rc == WDR_E_IO; }
+
+/* REJECTED into a slot's log; when the flash refuses it, the slot is not booted now either,
+ * and the next boot finds the same. */
 static int reject(const wdr_boot_flash *f, const wdr_boot_layout *l, int s, uint8_t reason, wdr_boot_slot *slot)
 {
     int rc = boot_log_put(f, l->state_addr[s], l->block_size, slot->log_next, WDR_REC_REJECTED, reason);
-    if (rc != WDR_OK && rc != WDR_E_TOO_LARGE)
+    if (rc != WDR_OK && !refused(rc))
         return rc;
     if (rc == WDR_OK)
         slot->log_next += WDR_BOOT_RECORD_SIZE;
@@ -51,25 +56,26 @@ static int newest_on_test(const wdr_boot_decision *d)
     return wdr_image_version_cmp(&d->slots[p].hdr.version, &d->slots[t].hdr.version) > 0 ? p : t;
 }
 
-/* A test boot: its ATTEMPT is on flash before the decision says so. */
+/* A test boot: its ATTEMPT is on flash before the decision says so. A slot whose ATTEMPT the
+ * flash refuses is passed over (never booted uncounted), and the other one, if on test, tried. */
 static int try_test_boot(const wdr_boot_flash *f, const wdr_boot_layout *l, wdr_boot_decision *d)
 {
-    int s = newest_on_test(d);
-    if (s < 0)
-        return WDR_OK;
-    wdr_boot_slot *slot = &d->slots[s];
-    int rc = boot_log_put(f, l->state_addr[s], l->block_size, slot->log_next, WDR_REC_ATTEMPT, slot->attempts + 1u);
-    if (rc == WDR_E_TOO_LARGE) {
-        slot->state = WDR_SLOT_REJECTED; /* cannot count its boots: never boot it uncounted */
+    for (int s; (s = newest_on_test(d)) >= 0;) {
+        wdr_boot_slot *slot = &d->slots[s];
+        int rc = boot_log_put(f, l->state_addr[s], l->block_size, slot->log_next, WDR_REC_ATTEMPT, slot->attempts + 1u);
+        if (refused(rc)) {
+            slot->state = WDR_SLOT_REJECTED; /* for this decision only: it cannot be counted */
+            continue;
+        }
+        if (rc != WDR_OK)
+            return rc;
+        slot->log_next += WDR_BOOT_RECORD_SIZE;
+        slot->attempts++;
+        slot->state = WDR_SLOT_TESTING;
+        d->slot = s;
+        d->testing = true;
         return WDR_OK;
     }
-    if (rc != WDR_OK)
-        return rc;
-    slot->log_next += WDR_BOOT_RECORD_SIZE;
-    slot->attempts++;
-    slot->state = WDR_SLOT_TESTING;
-    d->slot = s;
-    d->testing = true;
     return WDR_OK;
 }
 
@@ -83,9 +89,10 @@ static int confirmed_boot(const wdr_boot_flash *f, const wdr_boot_layout *l, wdr
     uint32_t counter = d->slots[s].hdr.security_counter;
     if (counter > d->floor) {
         int rc = wdr_boot_floor_raise(f, l, counter);
-        if (rc != WDR_OK)
+        if (rc != WDR_OK && rc != WDR_E_IO)
             return rc;
-        d->floor = counter;
+        if (rc == WDR_OK) /* else the next boot raises it: the image is confirmed either way */
+            d->floor = counter;
     }
     d->slot = s;
     return WDR_OK;

@@ -1,5 +1,6 @@
 /* One slot's state: the fold of its state log, then its image (SPEC.md, "Slot state"). */
 #include "boot_internal.h"
+#include "wdr_bytes.h"
 #include "wdr_err.h"
 #include <string.h>
 
@@ -52,11 +53,12 @@ static int read_structure(const wdr_boot_flash *f, const wdr_boot_layout *l, int
     return rc;
 }
 
+/* An image header's magic at the slot's start: an empty log over anything else is EMPTY. */
 static bool has_magic(const wdr_boot_flash *f, const wdr_boot_layout *l, int slot, int *rc)
 {
     uint8_t m[4];
     *rc = f->read(f->ctx, l->slot_addr[slot], m, sizeof m);
-    return *rc == WDR_OK && (uint32_t)(m[0] | m[1] << 8 | m[2] << 16 | (uint32_t)m[3] << 24) == WDR_IMAGE_MAGIC;
+    return *rc == WDR_OK && wdr_get_u32(m) == WDR_IMAGE_MAGIC;
 }
 
 /* Verify an image the log lets boot; its state follows from the result. */

@@ -138,8 +138,10 @@ typedef struct wdr_boot_decision {
  * gets REJECTED (unconfirmed); otherwise the valid CONFIRMED slot of the newest version runs
  * (slot A on a tie). A slot whose log says bootable but whose image fails gets REJECTED
  * (invalid). Every record is written before the decision is returned, so a cut at any point
- * repeats a decision that is at least as safe.
- * @retval WDR_OK (see out->slot)  @retval WDR_E_IO  @retval WDR_E_POWER */
+ * repeats a decision that is at least as safe. A record the flash refuses (log full, a program
+ * failing with WDR_E_IO) makes it more careful, never fails it: that slot is not test-booted or
+ * is passed over, and a floor raise that fails is left to the next boot.
+ * @retval WDR_OK (see out->slot)  @retval WDR_E_IO a read failed  @retval WDR_E_POWER */
 int wdr_boot_decide(const wdr_boot_flash *f, const wdr_boot_layout *l, const wdr_boot_policy *pol,
                     wdr_boot_decision *out);
 

@@ -22,6 +22,7 @@ function(wdr_boot_key_point KEY OUT_VAR)
   execute_process(COMMAND ${WDR_OPENSSL} pkey -pubin -in ${KEY} -outform DER -out ${_der}
                   RESULT_VARIABLE _rc ERROR_VARIABLE _err)
   if(NOT _rc EQUAL 0)
+    string(REGEX REPLACE "\n.*" "" _err "${_err}") # openssl's first line; the rest is its stack
     message(FATAL_ERROR "WDR_SIGNING_KEY: ${KEY}: not a PEM public key (openssl pkey -pubin: ${_err})")
   endif()
   file(READ ${_der} _hex HEX)

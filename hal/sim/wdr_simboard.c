@@ -166,8 +166,11 @@ static int flash_factory_image(const char *path)
     }
     int rc = too_long ? WDR_E_TOO_LARGE : hal_sim_image_flash_write_factory(image, n);
     if (rc != WDR_OK) {
-        fprintf(stderr, "wdr-simboard: --firmware %s: %zu%s bytes do not fit slot A: %s\n", path, n,
-                too_long ? "+" : "", wdr_strerror(rc));
+        const hal_flash_geometry g = {HAL_SIM_IMAGE_BLOCK_SIZE, HAL_SIM_IMAGE_BLOCK_COUNT, HAL_SIM_IMAGE_PROG_SIZE};
+        wdr_boot_layout l = {0};
+        wdr_boot_layout_init(&l, &g);
+        fprintf(stderr, "wdr-simboard: --firmware %s: %zu%s bytes, slot A holds %u: %s\n", path, n, too_long ? "+" : "",
+                l.image_capacity, wdr_strerror(rc));
         return EX_DATAERR;
     }
     fprintf(stderr, "wdr-simboard: --firmware %s: %zu bytes written into slot A (factory image)\n", path, n);

@@ -1,5 +1,6 @@
 /* Boot chain test helpers (boot_test_util.h): OpenSSL signs, the NOR emulator stores. */
 #include "boot_test_util.h"
+#include "crc32.h"
 #include "wdr_err.h"
 #include <openssl/core_names.h>
 #include <openssl/ec.h>
@@ -111,7 +112,7 @@ size_t bt_image_build(uint8_t *out, size_t cap, const bt_image_spec *s, const bt
     wdr_image_header_pack(&h, out);
     for (uint32_t i = 0; i < s->app_size; i++)
         out[WDR_IMAGE_HEADER_SIZE + i] = (uint8_t)(i * 7u + s->seed * 31u + (i >> 8));
-    wdr_image_trailer t;
+    wdr_image_trailer t = {0};
     unsigned int dlen = 0;
     if (!EVP_Digest(out, WDR_IMAGE_HEADER_SIZE + s->app_size, t.sha256, &dlen, EVP_sha256(), NULL) ||
         !EVP_Digest((hash_key ? hash_key : signer)->pub, WDR_P256_PUBKEY_SIZE, t.key_hash, &dlen, EVP_sha256(), NULL))
@@ -134,6 +135,16 @@ void bt_flash_image(bt_flash *b, int slot, const uint8_t *img, size_t len)
         if (nor_emul_prog(&b->nor, at + (uint32_t)off, unit, 16) != WDR_OK)
             die("program");
     }
+}
+
+int bt_upload(bt_flash *b, int slot, const uint8_t *img, size_t len, uint32_t chunk, const wdr_boot_policy *pol)
+{
+    wdr_boot_upload u;
+    int rc = wdr_boot_upload_begin(&b->f, &b->l, &u, slot, (uint32_t)len, wdr_crc32(0, img, len));
+    for (size_t off = 0; rc == WDR_OK && off < len; off += chunk)
+        rc = wdr_boot_upload_chunk(&b->f, &b->l, &u, (uint32_t)off, img + off,
+                                   (uint32_t)(len - off < chunk ? len - off : chunk));
+    return rc == WDR_OK ? wdr_boot_upload_finish(&b->f, &b->l, &u, pol, NULL) : rc;
 }
 
 wdr_boot_policy bt_policy(const bt_key *trusted)

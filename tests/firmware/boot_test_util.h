@@ -58,6 +58,10 @@ size_t bt_image_build(uint8_t *out, size_t cap, const bt_image_spec *s, const bt
 /* Program an image at a slot as a factory would (no log records): erase its blocks, write. */
 void bt_flash_image(bt_flash *b, int slot, const uint8_t *img, size_t len);
 
+/* A whole upload through the library (begin, chunks of `chunk` bytes, finish): the first
+ * error of a step, or WDR_OK. */
+int bt_upload(bt_flash *b, int slot, const uint8_t *img, size_t len, uint32_t chunk, const wdr_boot_policy *pol);
+
 /* Policy for BT_BOARD, the load range above and the public key. */
 wdr_boot_policy bt_policy(const bt_key *trusted);
 

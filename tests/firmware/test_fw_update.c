@@ -231,7 +231,11 @@ static void revert_goes_back_to_the_confirmed_image(void **state)
     image v2 = sign_v(2, 1);
     assert_int_equal(upload(&v2, 4096, NULL), WDR_ST_OK);
     assert_int_equal(reboot(), 1);
-    assert_int_equal(simple(WDR_CMD_FW_REVERT), WDR_ST_OK);
+    assert_int_equal(simple(WDR_CMD_FW_CONFIRM), WDR_ST_OK);
+    assert_int_equal(simple(WDR_CMD_FW_REVERT), WDR_ST_OK); /* a confirmed image may be left too */
+    /* until the reboot, slot A is the only way back: an upload there would erase it */
+    assert_int_equal(upload(&v2, 4096, NULL), WDR_ST_BAD_STATE);
+    assert_int_equal(fw_status().slot[0].state, WDR_SLOT_CONFIRMED);
     assert_int_equal(reboot(), 0);
     wdr_fw_status_report r = fw_status();
     assert_int_equal(r.slot[1].state, WDR_SLOT_REJECTED);
@@ -240,11 +244,11 @@ static void revert_goes_back_to_the_confirmed_image(void **state)
     free(v2.p);
 }
 
-/* Every image refusal: its status, slot B never pending, and v1 still what boots. */
+/* Every image refusal: its status, slot B left incomplete (never booted), v1 still what boots. */
 static void refuse(const image *im, int status)
 {
     assert_int_equal(upload(im, 4096, NULL), status);
-    assert_int_not_equal(fw_status().slot[1].state, WDR_SLOT_PENDING);
+    assert_int_equal(fw_status().slot[1].state, WDR_SLOT_INCOMPLETE);
     assert_int_equal(reboot(), 0);
     assert_int_equal(info().fw_major, 1);
 }
@@ -291,7 +295,7 @@ static void downgrade_below_the_floor_is_refused(void **state)
     assert_int_equal(simple(WDR_CMD_FW_CONFIRM), WDR_ST_OK);
     assert_int_equal(fw_status().floor, 5);
     assert_int_equal(upload(&v3, 4096, NULL), WDR_ST_DOWNGRADE); /* newer version, older counter */
-    assert_int_not_equal(fw_status().slot[0].state, WDR_SLOT_PENDING);
+    assert_int_equal(fw_status().slot[0].state, WDR_SLOT_INCOMPLETE);
     assert_int_equal(reboot(), 1);
     assert_int_equal(info().fw_major, 2);
     free(v2.p);
@@ -336,7 +340,7 @@ static void upload_protocol_refusals(void **state)
     assert_int_equal(th_request(&fw, WDR_CMD_LUT_CHUNK, lut_chunk, sizeof lut_chunk, NULL, 0), WDR_ST_BAD_KIND);
     assert_int_equal(chunk(&v2, 4096, 4096), WDR_ST_OK);
     assert_int_equal(simple(WDR_CMD_FW_COMMIT), WDR_ST_TRUNCATED);
-    assert_int_not_equal(fw_status().slot[1].state, WDR_SLOT_PENDING);
+    assert_int_equal(fw_status().slot[1].state, WDR_SLOT_INCOMPLETE);
     assert_int_equal(simple(WDR_CMD_FW_COMMIT), WDR_ST_BAD_SEQUENCE); /* the failure ended it */
 
     assert_int_equal(begin((uint32_t)v2.n, crc ^ 1), WDR_ST_OK);
@@ -344,7 +348,7 @@ static void upload_protocol_refusals(void **state)
         assert_int_equal(chunk(&v2, off, v2.n - off < 4096 ? (uint32_t)(v2.n - off) : 4096), WDR_ST_OK);
     assert_int_equal(chunk(&v2, (uint32_t)v2.n, 1), WDR_ST_TOO_LARGE);
     assert_int_equal(simple(WDR_CMD_FW_COMMIT), WDR_ST_BAD_CRC);
-    assert_int_not_equal(fw_status().slot[1].state, WDR_SLOT_PENDING);
+    assert_int_equal(fw_status().slot[1].state, WDR_SLOT_INCOMPLETE);
 
     assert_int_equal(begin((uint32_t)v2.n, crc), WDR_ST_OK);
     assert_int_equal(simple(WDR_CMD_ABORT), WDR_ST_OK); /* drops it */

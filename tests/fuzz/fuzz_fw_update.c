@@ -10,7 +10,7 @@
  *   other [u16 n][n bytes]        that opcode with that payload
  * Seeds (make_seeds.c) carry images signed with the development key, so runs start past the
  * signature and the mutations reach every check after it.
- * The invariant, after every input: the firmware never marked bootable an image that fails
+ * The invariant, after every record: the firmware never marked bootable an image that fails
  * anything but the security counter (which a later confirm may legitimately raise): no slot
  * that only uploads wrote is INVALID for another reason. */
 #include "crc32.h"
@@ -152,9 +152,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     (void)fz_u8(&in);
     raw_written[0] = raw_written[1] = 0;
     fz_board_fresh(&fw);
-    for (int records = 0; in.left && records < 64; records++)
+    for (int records = 0; in.left && records < 64; records++) {
         one_record(&in, fz_u8(&in));
-    check_slots();
+        check_slots(); /* before a reboot's decision rejects what it finds broken */
+    }
     reset_board(WDR_RESET_POWER_ON); /* whatever came before, the board boots and answers */
     fz_board_request(&fw, WDR_CMD_FW_STATUS, NULL, 0);
     return 0;

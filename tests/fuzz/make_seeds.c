@@ -7,6 +7,7 @@
 #include "crc32.h"
 #include "fake_hal.h"
 #include "image_io.h"
+#include "make_seeds_image.h"
 #include "table_builders.h"
 #include "wdr_cal.h"
 #include "wdr_lut.h"
@@ -412,6 +413,7 @@ int main(int argc, char **argv)
     boot();
     images();
     client();
+    make_image_seeds(put);
     return 0;
 }
 

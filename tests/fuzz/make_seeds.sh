@@ -6,7 +6,7 @@ set -eu
 here=$(cd "$(dirname "$0")" && pwd); top=$(cd "$here/../.." && pwd); build=$1
 corpus=$here/corpus
 cmake --build "$build" --target fuzz_make_seeds wdrctl -j2 >/dev/null
-for t in fw_rx fw_update lut cal boot scene images client; do mkdir -p "$corpus/$t"; done
+for t in fw_rx fw_update lut cal boot scene images client image; do mkdir -p "$corpus/$t"; done
 "$build/tests/fuzz/fuzz_make_seeds" "$corpus"
 for s in "$top"/sim/scenes/*.json; do cp "$s" "$corpus/scene/$(basename "$s")"; done
 export WDR_BOARDS_DIR="$top/boards"
