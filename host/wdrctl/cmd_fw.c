@@ -45,7 +45,8 @@ FW_COMMAND(wdrctl_cmd_fw_confirm, "fw confirm", NULL, 0, 0, "keep the running te
 FW_COMMAND(wdrctl_cmd_fw_revert, "fw revert", NULL, 0, 0, "give up the running image: the next boot runs the other",
            NULL, no_rows, cmd_fw_revert);
 FW_COMMAND(wdrctl_cmd_reboot, "reboot", NULL, 0, 0, "reset the board and wait until it answers again",
-           "Sends REBOOT, then connects again until the board answers INFO (for --wait MS, default 15000) and "
+           "Sends REBOOT, then connects again until the board answers from a new boot (its FW_STATUS boot "
+           "count changed; without one, after the old link dropped) within --wait MS (default 15000), and "
            "prints the image it runs now.",
            no_rows, cmd_reboot);
 
@@ -238,13 +239,17 @@ static void slot_version(const wdr_fw_slot_report *s, char *out, size_t cap)
     wdr_fw_version_format(&v, out + 1, cap - 1);
 }
 
-/* What follows the state: why it was rejected or fails. */
+/* What follows the state: why it was rejected, fails, or never ran. */
 static void slot_note(const wdr_fw_slot_report *s, char *out, size_t cap)
 {
     out[0] = 0;
-    if (s->state == 5 && s->reject_reason > 0 && s->reject_reason < 4)
+    if (s->state == 1)
+        snprintf(out, cap, " (an upload that never verified: never booted)");
+    else if (s->state == 5 && s->reject_reason == 3 && s->verify_err)
+        snprintf(out, cap, " (%s: %s)", reject_reasons[3], wdr_strerror(s->verify_err));
+    else if (s->state == 5 && s->reject_reason > 0 && s->reject_reason < 4)
         snprintf(out, cap, " (%s)", reject_reasons[s->reject_reason]);
-    else if (s->verify_err && s->state != 0)
+    else if (s->state == 6 && s->verify_err)
         snprintf(out, cap, " (%s)", wdr_strerror(s->verify_err));
 }
 
@@ -385,6 +390,15 @@ int cmd_fw_revert(int argc, char **argv)
 
 /* ---- reboot ------------------------------------------------------------------------------------------- */
 
+/* The board's boot count, to tell the new boot from the old one; 0 when it has none. */
+static uint32_t boots_of(wdr_client *c)
+{
+    wdr_fw_status_report st;
+    if (wdr_client_fw_status(c, &st) != WDR_OK || (st.flags & WDR_FW_STATUS_F_NO_BOOT))
+        return 0;
+    return st.boots;
+}
+
 /* After REBOOT: the old link drops (a socket) or goes quiet (a UART); wait for either. */
 static void wait_link_drop(wdrctl_conn *conn)
 {
@@ -395,8 +409,10 @@ static void wait_link_drop(wdrctl_conn *conn)
             return;
 }
 
-/* Connect again and again, quietly, until the board answers INFO or the deadline passes. */
-static int reconnect_quietly(const fw_opts *o, int64_t deadline, wdrctl_conn *conn, char *err, size_t cap)
+/* Connect again and again, quietly, until the board answers INFO (with another boot count
+ * than old_boots, when that is known) or the deadline passes. */
+static int reconnect_quietly(const fw_opts *o, int64_t deadline, uint32_t old_boots, wdrctl_conn *conn, char *err,
+                             size_t cap)
 {
     memset(conn, 0, sizeof *conn);
     conn->c = calloc(1, sizeof *conn->c);
@@ -410,9 +426,13 @@ static int reconnect_quietly(const fw_opts *o, int64_t deadline, wdrctl_conn *co
             conn->c->timeout_ms = o->timeout_ms;
             conn->c->retries = 0;
             rc = wdr_client_connect(conn->c, conn->t);
-            if (rc == WDR_OK)
+            if (rc == WDR_OK && (!old_boots || boots_of(conn->c) != old_boots))
                 return WDR_OK;
-            snprintf(err, cap, "%s", conn->c->err);
+            if (rc == WDR_OK) {
+                rc = WDR_E_TIMEOUT;
+                snprintf(err, cap, "it still answers from the boot before the REBOOT");
+            } else
+                snprintf(err, cap, "%s", conn->c->err);
             wdr_transport_close(conn->t);
             conn->t = NULL;
         }
@@ -432,6 +452,7 @@ int cmd_reboot(int argc, char **argv)
     if (rc != EX_OK || (rc = connect_fw(&o, &conn)) != EX_OK)
         return rc;
     running_text(&conn.c->info, before, sizeof before);
+    uint32_t old_boots = conn.c->info.proto_minor >= 4 ? boots_of(conn.c) : 0;
     int r = wdr_client_fw_request(conn.c, WDR_CMD_REBOOT);
     if (r != WDR_OK) {
         rc = refused(&conn, r, WDR_CMD_REBOOT, "reboot", "");
@@ -439,10 +460,11 @@ int cmd_reboot(int argc, char **argv)
         return rc;
     }
     int64_t t0 = wdr_transport_now_ms();
-    wait_link_drop(&conn);
+    if (!old_boots)
+        wait_link_drop(&conn); /* no boot count to tell the boots apart: let the old one go */
     wdrctl_disconnect(&conn);
     int wait = o.wait_ms > 0 ? o.wait_ms : REBOOT_WAIT_MS;
-    r = reconnect_quietly(&o, t0 + wait, &conn, err, sizeof err);
+    r = reconnect_quietly(&o, t0 + wait, old_boots, &conn, err, sizeof err);
     if (r != WDR_OK)
         return wdrctl_fail(wdrctl_exit_code(r == WDR_E_ABSENT ? WDR_E_TIMEOUT : r, 0),
                            "reboot: the board did not answer again within %d ms (%s); it ran %s", wait, err, before);

@@ -383,6 +383,27 @@ static void stream_and_upload(void **state)
     free(v2.p);
 }
 
+/* A factory image nobody trusts: the boot rejects it, nothing is bootable, and the firmware
+ * still runs (unversioned) and answers, so a good image can be uploaded. */
+static void nothing_bootable_keeps_answering(void **state)
+{
+    (void)state;
+    image bad = sign_as(1, 0, 1, FB_BOARD_NAME, &other_key), v2 = sign_v(2, 1);
+    flash_factory(&bad);
+    assert_int_equal(reset_board(WDR_RESET_POWER_ON), -1);
+    assert_int_equal(info().fw_slot, WDR_SLOT_NONE);
+    wdr_fw_status_report r = fw_status();
+    assert_true(r.flags & WDR_FW_STATUS_F_NO_BOOT);
+    assert_int_equal(r.slot[0].state, WDR_SLOT_REJECTED);
+    assert_int_equal(r.slot[0].reject_reason, WDR_REJECT_INVALID);
+    assert_int_equal(upload(&v2, 4096, NULL), WDR_ST_OK); /* into A: B holds no confirmed image either */
+    assert_int_equal(reboot(), 0);
+    assert_int_equal(info().fw_major, 2);
+    assert_int_equal(info().fw_flags, 1);
+    free(bad.p);
+    free(v2.p);
+}
+
 static void board_without_image_flash(void **state)
 {
     (void)state;
@@ -418,6 +439,7 @@ int main(void)
         cmocka_unit_test(downgrade_below_the_floor_is_refused),
         cmocka_unit_test(upload_protocol_refusals),
         cmocka_unit_test(stream_and_upload),
+        cmocka_unit_test(nothing_bootable_keeps_answering),
         cmocka_unit_test(board_without_image_flash),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

@@ -94,6 +94,9 @@ static void assert_has(const char *text, const char *part)
 /* ---- The scripted board: protocol 1.4, v1.0.0+1 in slot A; refuses as a case says ------------ */
 
 static int refuse_commit, refuse_begin, refuse_confirm, proto_minor = 4, rebooted;
+static int stale_sessions, sessions_after_reboot; /* hosts the old boot still answers after REBOOT */
+
+static int new_boot(void) { return rebooted && sessions_after_reboot > stale_sessions; }
 static uint32_t got_len, got_crc;
 
 static void reply_info(scripted_board *b, const wdr_packet *req)
@@ -103,7 +106,9 @@ static void reply_info(scripted_board *b, const wdr_packet *req)
                      .sensor_id = 0x1234, .width = 16, .height = 8, .adc_bits = 12, .dac_bits = 12,
                      .max_payload = WDR_PROTO_MAX_PAYLOAD, .lut_capacity = 1 << 20, .cal_capacity = 1 << 22,
                      .row_time_ns = 1000};
-    if (rebooted) /* the pending image now runs as a test boot */
+    if (rebooted)
+        sessions_after_reboot++; /* every host starts with INFO */
+    if (new_boot()) /* the pending image now runs as a test boot */
         info = (wdr_info){.proto_major = 1, .proto_minor = 4, .fw_major = 2, .fw_minor = 0, .fw_patch = 0,
                           .fw_build = 2, .fw_slot = 1, .fw_flags = 1, .sensor_id = 0x1234, .width = 16, .height = 8,
                           .adc_bits = 12, .dac_bits = 12, .max_payload = WDR_PROTO_MAX_PAYLOAD, .row_time_ns = 1000};
@@ -116,7 +121,8 @@ static void reply_info(scripted_board *b, const wdr_packet *req)
 static void reply_fw_status(scripted_board *b, const wdr_packet *req)
 {
     wdr_fw_status_report r = {.running = 0, .reset_cause = 3, .flags = WDR_FW_STATUS_F_DEV_KEY, .max_attempts = 3,
-                              .fault_pc = 0x00001234u, .fault_status = 0x00008200u, .floor = 1, .boots = 5,
+                              .fault_pc = 0x00001234u, .fault_status = 0x00008200u, .floor = 1,
+                              .boots = new_boot() ? 6u : 5u,
                               .key_hash = {0x4d, 0x08, 0x20, 0xc8}};
     r.slot[0] = (wdr_fw_slot_report){.state = 4, .ver_major = 1, .ver_build = 1, .security_counter = 1,
                                      .image_size = 4096, .sha256 = {0xab, 0xcd}};
@@ -173,7 +179,7 @@ static const char *start_board(scripted_board *b, char *addr, size_t cap, int se
     snprintf(path, sizeof path, "%s/board%d.sock", dir, case_no++);
     memset(b, 0, sizeof *b);
     b->sessions = sessions;
-    refuse_commit = refuse_begin = refuse_confirm = rebooted = 0;
+    refuse_commit = refuse_begin = refuse_confirm = rebooted = stale_sessions = sessions_after_reboot = 0;
     proto_minor = 4;
     assert_int_equal(scripted_board_start_listen(b, path, script_fw), 0);
     snprintf(addr, cap, "sim:%s", path);
@@ -408,6 +414,15 @@ static void reboot_reconnects_and_prints_the_new_image(void **state)
     assert_int_equal(b.opcodes[WDR_CMD_REBOOT], 1);
     assert_int_equal(b.opcodes[WDR_CMD_INFO], 2);
     assert_has(out_text, "was v1.0.0+1 in slot A, now v2.0.0+2 in slot B (test boot)");
+
+    /* the old boot answers the first host after REBOOT: its boot count gives it away */
+    const char *stale[] = {"--device", start_board(&b, addr, sizeof addr, 3), "reboot", NULL};
+    stale_sessions = 1;
+    rc = run_wdrctl(stale);
+    scripted_board_stop(&b);
+    assert_int_equal(rc, EX_OK);
+    assert_int_equal(b.opcodes[WDR_CMD_INFO], 3);
+    assert_has(out_text, "now v2.0.0+2 in slot B (test boot)");
 
     /* a board that never comes back: the wait ends with the reason and what ran */
     const char *gone[] = {"--device", start_board(&b, addr, sizeof addr, 1), "--wait", "300", "--timeout", "300", "reboot", NULL};
