@@ -53,8 +53,9 @@ static int is_p256(EVP_PKEY *k)
 static int public_point(EVP_PKEY *k, uint8_t out[WDR_P256_PUBKEY_SIZE])
 {
     BIGNUM *x = NULL, *y = NULL;
-    int ok = EVP_PKEY_get_bn_param(k, OSSL_PKEY_PARAM_EC_PUB_X, &x) && EVP_PKEY_get_bn_param(k, OSSL_PKEY_PARAM_EC_PUB_Y, &y) &&
-             BN_bn2binpad(x, out + 1, 32) == 32 && BN_bn2binpad(y, out + 33, 32) == 32;
+    int ok = EVP_PKEY_get_bn_param(k, OSSL_PKEY_PARAM_EC_PUB_X, &x) &&
+             EVP_PKEY_get_bn_param(k, OSSL_PKEY_PARAM_EC_PUB_Y, &y) && BN_bn2binpad(x, out + 1, 32) == 32 &&
+             BN_bn2binpad(y, out + 33, 32) == 32;
     out[0] = 0x04;
     BN_free(x);
     BN_free(y);
@@ -71,8 +72,10 @@ static int take_key(EVP_PKEY *k, int has_private, const char *path, wdr_fw_key *
 {
     if (!is_p256(k)) {
         EVP_PKEY_free(k);
-        snprintf(err, cap, "%s: not an ECDSA P-256 key (make one with: openssl genpkey -algorithm EC -pkeyopt "
-                 "ec_paramgen_curve:P-256 -out KEY.pem)", path);
+        snprintf(err, cap,
+                 "%s: not an ECDSA P-256 key (make one with: openssl genpkey -algorithm EC -pkeyopt "
+                 "ec_paramgen_curve:P-256 -out KEY.pem)",
+                 path);
         return WDR_E_INVAL;
     }
     key->pkey = k;

@@ -2,6 +2,7 @@
  * "Firmware image format"): header, application padded to 16, trailer with the SHA-256 of both,
  * the key's hash and the ECDSA P-256 signature as raw r || s. */
 #include "fw_sign.h"
+#include "wdr_bytes.h"
 #include "wdr_err.h"
 #include <openssl/bn.h>
 #include <openssl/ec.h>
@@ -23,8 +24,8 @@ static int board_name_ok(const char *b)
     return 1;
 }
 
-static int check_params(const char *name, size_t len, const wdr_fw_sign_params *p, const wdr_fw_key *key, char *err,
-                        size_t cap)
+static int check_params(const char *name, const uint8_t *app, size_t len, const wdr_fw_sign_params *p,
+                        const wdr_fw_key *key, char *err, size_t cap)
 {
     if (!key->has_private) {
         snprintf(err, cap, "%s: a public key cannot sign", key->name);
@@ -34,9 +35,19 @@ static int check_params(const char *name, size_t len, const wdr_fw_sign_params *
         snprintf(err, cap, "%s: empty file: no application to sign", name);
         return WDR_E_INVAL;
     }
+    if (len >= 4 && !memcmp(app,
+                            "\x7f"
+                            "ELF",
+                            4)) {
+        snprintf(err, cap, "%s: an ELF file: sign the application's raw .bin (objcopy -O binary)", name);
+        return WDR_E_INVAL;
+    }
+    if (len >= 4 && wdr_get_u32(app) == WDR_IMAGE_MAGIC) {
+        snprintf(err, cap, "%s: already a signed image (header magic WIMG): sign the application's .bin", name);
+        return WDR_E_INVAL;
+    }
     if (len > WDR_IMAGE_MAX_SIZE) {
-        snprintf(err, cap, "%s: %zu bytes; an image holds at most %u application bytes", name, len,
-                 WDR_IMAGE_MAX_SIZE);
+        snprintf(err, cap, "%s: %zu bytes; an image holds at most %u application bytes", name, len, WDR_IMAGE_MAX_SIZE);
         return WDR_E_TOO_LARGE;
     }
     if (!board_name_ok(p->board)) {
@@ -87,7 +98,8 @@ static wdr_image_header header_for(const wdr_fw_sign_params *p, const wdr_fw_key
                           .load_addr = p->load_addr,
                           .version = p->version,
                           .security_counter = p->security_counter,
-                          .flags = (p->ram_load ? WDR_IMAGE_F_RAM_LOAD : 0u) | (key->is_dev ? WDR_IMAGE_F_DEV_KEY : 0u)};
+                          .flags =
+                              (p->ram_load ? WDR_IMAGE_F_RAM_LOAD : 0u) | (key->is_dev ? WDR_IMAGE_F_DEV_KEY : 0u)};
     snprintf(h.board, sizeof h.board, "%s", p->board);
     return h;
 }
@@ -97,7 +109,7 @@ int wdr_fw_sign(const char *name, const uint8_t *app, size_t len, const wdr_fw_s
 {
     *img = NULL;
     *img_len = 0;
-    int rc = check_params(name, len, p, key, err, cap);
+    int rc = check_params(name, app, len, p, key, err, cap);
     if (rc != WDR_OK)
         return rc;
     uint32_t image_size = (uint32_t)((len + WDR_IMAGE_ALIGN - 1) / WDR_IMAGE_ALIGN * WDR_IMAGE_ALIGN);

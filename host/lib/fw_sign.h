@@ -13,12 +13,12 @@
 /* ---- Keys (fw_key.c) ------------------------------------------------------------------------ */
 
 typedef struct wdr_fw_key {
-    void *pkey;                           /* EVP_PKEY, owned */
-    int has_private;                      /* it can sign */
-    int is_dev;                           /* the tree's development key: not for production */
-    uint8_t point[WDR_P256_PUBKEY_SIZE];  /* 0x04 || X || Y */
-    uint8_t hash[WDR_SHA256_SIZE];        /* SHA-256 of point: the trailer's key hash */
-    char name[256];                       /* the file it came from, for messages */
+    void *pkey;                          /* EVP_PKEY, owned */
+    int has_private;                     /* it can sign */
+    int is_dev;                          /* the tree's development key: not for production */
+    uint8_t point[WDR_P256_PUBKEY_SIZE]; /* 0x04 || X || Y */
+    uint8_t hash[WDR_SHA256_SIZE];       /* SHA-256 of point: the trailer's key hash */
+    char name[256];                      /* the file it came from, for messages */
 } wdr_fw_key;
 
 /* Load a P-256 key from a PEM file: a private key when need_private, else a private or a
@@ -50,15 +50,16 @@ void wdr_fw_version_format(const wdr_image_version *v, char *out, size_t cap);
 typedef struct wdr_fw_sign_params {
     wdr_image_version version;
     uint32_t security_counter;
-    uint32_t load_addr;       /* 4-aligned */
-    const char *board;        /* 1..15 printable ASCII characters */
-    int ram_load;             /* WDR_IMAGE_F_RAM_LOAD: our bootloader copies every image */
+    uint32_t load_addr; /* 4-aligned */
+    const char *board;  /* 1..15 printable ASCII characters */
+    int ram_load;       /* WDR_IMAGE_F_RAM_LOAD: our bootloader copies every image */
 } wdr_fw_sign_params;
 
 /* Sign app (len bytes, zero padded to 16) into a whole image in *img (malloc'd, free()).
  * Flags: RAM load as asked, DEV_KEY when key is the development key. name: the application
  * file, for messages.
- * @retval WDR_OK  @retval WDR_E_INVAL a parameter out of range or an empty file
+ * @retval WDR_OK  @retval WDR_E_INVAL a parameter out of range, an empty file, an ELF file or an
+ * image already signed
  * @retval WDR_E_TOO_LARGE app over 16 MiB  @retval WDR_E_NOMEM  @retval WDR_E_SIGNATURE libcrypto failed */
 int wdr_fw_sign(const char *name, const uint8_t *app, size_t len, const wdr_fw_sign_params *p, const wdr_fw_key *key,
                 uint8_t **img, size_t *img_len, char *err, size_t cap);

@@ -30,13 +30,14 @@ static int check_board(const char *name, const uint8_t *p, char *err, size_t cap
     while (n < WDR_IMAGE_BOARD_MAX && p[n] >= 0x21u && p[n] <= 0x7eu)
         n++;
     if (n == 0 || n == WDR_IMAGE_BOARD_MAX || p[n] != 0)
-        return refuse(WDR_E_INVAL, err, cap, name,
-                      "header field board: byte %lu is 0x%02lx, not a printable character or the NUL after 1..15 of them",
-                      n, n < WDR_IMAGE_BOARD_MAX ? p[n] : 0);
+        return refuse(
+            WDR_E_INVAL, err, cap, name,
+            "header field board: byte %lu is 0x%02lx, not a printable character or the NUL after 1..15 of them", n,
+            n < WDR_IMAGE_BOARD_MAX ? p[n] : 0);
     for (uint32_t i = n; i < WDR_IMAGE_BOARD_MAX; i++)
         if (p[i])
-            return refuse(WDR_E_INVAL, err, cap, name, "header field board: byte %lu after the name's NUL is 0x%02lx, not 0",
-                          i, p[i]);
+            return refuse(WDR_E_INVAL, err, cap, name,
+                          "header field board: byte %lu after the name's NUL is 0x%02lx, not 0", i, p[i]);
     return WDR_OK;
 }
 
@@ -61,8 +62,8 @@ static int check_header(const char *name, const uint8_t *p, wdr_image_header *h,
 {
     uint32_t magic = wdr_get_u32(p), flags = wdr_get_u32(p + 28);
     if (magic != WDR_IMAGE_MAGIC)
-        return refuse(WDR_E_CORRUPT, err, cap, name, "header field magic: 0x%08lx, not 0x%08lx (WIMG): not a signed image",
-                      magic, WDR_IMAGE_MAGIC);
+        return refuse(WDR_E_CORRUPT, err, cap, name,
+                      "header field magic: 0x%08lx, not 0x%08lx (WIMG): not a signed image", magic, WDR_IMAGE_MAGIC);
     if (p[6] != WDR_IMAGE_VERSION_MAJOR)
         return refuse(WDR_E_VERSION, err, cap, name, "header field format_major: %lu, this tool reads format %lu", p[6],
                       WDR_IMAGE_VERSION_MAJOR);
@@ -119,9 +120,10 @@ static int check_structure(const char *name, const uint8_t *img, size_t len, wdr
         return refuse(WDR_E_TRUNCATED, err, cap, name,
                       "%lu bytes, but header field image_size says %lu (64 + image_size + 136): truncated", len, total);
     if (len > total)
-        return refuse(WDR_E_INVAL, err, cap, name,
-                      "%lu bytes, but header field image_size says %lu (64 + image_size + 136): bytes after the trailer",
-                      len, total);
+        return refuse(
+            WDR_E_INVAL, err, cap, name,
+            "%lu bytes, but header field image_size says %lu (64 + image_size + 136): bytes after the trailer", len,
+            total);
     return check_trailer(name, img + WDR_IMAGE_HEADER_SIZE + out->hdr.image_size, &out->trl, err, cap);
 }
 
@@ -206,8 +208,10 @@ int wdr_fw_image_check(const char *name, const uint8_t *img, size_t len, const w
         char have[2 * WDR_SHA256_SIZE + 1], want[2 * WDR_SHA256_SIZE + 1];
         wdr_fw_hex(out->sha256, 8, have);
         wdr_fw_hex(out->trl.sha256, 8, want);
-        snprintf(err, cap, "%s: trailer field sha256: %s..., the header and application hash to %s...: the image is "
-                 "damaged", name, want, have);
+        snprintf(err, cap,
+                 "%s: trailer field sha256: %s..., the header and application hash to %s...: the image is "
+                 "damaged",
+                 name, want, have);
         return WDR_E_HASH;
     }
     return key_rc;

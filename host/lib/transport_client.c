@@ -325,7 +325,7 @@ static int upload_bytes(wdr_client *c, uint8_t op_begin, const uint8_t *data, si
                         wdr_progress_fn progress, void *progress_ctx)
 {
     if (len == 0 || len > 0xffffffffu)
-        return fail(c, WDR_E_INVAL, "table is empty or larger than 4 GiB");
+        return fail(c, WDR_E_INVAL, "nothing to upload, or more than 4 GiB");
     uint8_t begin[WDR_BEGIN_SIZE];
     wdr_put_u32(begin, (uint32_t)len);
     wdr_put_u32(begin + 4, crc);

@@ -4,6 +4,7 @@
 #include "cli_number.h"
 #include "crc32.h"
 #include "file_io.h"
+#include "fw_sign.h"
 #include "image_io.h"
 #include "transport.h"
 #include "transport_client.h"
@@ -282,9 +283,13 @@ static void print_info_text(const char *device, const wdr_info *i)
            i->row_time_ns, i->proto_major, i->proto_minor);
     if (i->fw_slot > 1) /* not booted from a signed image: the firmware's built-in version */
         printf("firmware:      %u.%u (not booted from an image slot)\n", i->fw_major, i->fw_minor);
-    else
-        printf("firmware:      %u.%u.%u+%u, slot %s%s\n", i->fw_major, i->fw_minor, i->fw_patch, i->fw_build,
-               i->fw_slot ? "B" : "A", i->fw_flags & 1 ? ", test boot (wdrctl fw confirm keeps it)" : "");
+    else {
+        wdr_image_version v = {(uint8_t)i->fw_major, (uint8_t)i->fw_minor, i->fw_patch, i->fw_build};
+        char ver[48];
+        wdr_fw_version_format(&v, ver, sizeof ver); /* as fw info and fw status write it */
+        printf("firmware:      %s, slot %s%s\n", ver, i->fw_slot ? "B" : "A",
+               i->fw_flags & 1 ? ", test boot (wdrctl fw confirm keeps it)" : "");
+    }
     printf("max payload:   %u bytes\nLUT capacity:  %u bytes\nCAL capacity:  %u bytes\nsimulated:     %s\n",
            i->max_payload, i->lut_capacity, i->cal_capacity, (i->caps & WDR_INFO_CAP_ILLUMINANT) ? "yes" : "no");
 }

@@ -65,6 +65,11 @@ static int connect_fw(const fw_opts *o, wdrctl_conn *conn)
 
 /* ---- Words ------------------------------------------------------------------------------------- */
 
+/* FW_STATUS's codes (SPEC.md, "Firmware status"; wdr_boot.h's enums, which the host does not
+ * include: it knows the board only through the protocol). */
+enum { SLOT_EMPTY, SLOT_INCOMPLETE, SLOT_PENDING, SLOT_TESTING, SLOT_CONFIRMED, SLOT_REJECTED, SLOT_INVALID };
+enum { REJECT_INVALID = 3, RESET_FAULT = 3 };
+
 static const char *slot_letter(unsigned slot) { return slot == 0 ? "A" : slot == 1 ? "B" : "none"; }
 
 /* "v1.2.3+4 in slot A (test boot)" from INFO 1.4, or the built-in version of a board not
@@ -146,10 +151,10 @@ static void upload_progress(void *ctx, size_t done, size_t total)
  * start, 8 data, stop; the host waits for each chunk's answer, so both directions count). */
 static void print_upload_time(const wdrctl_conn *conn, size_t len, uint64_t tx, uint64_t rx, int64_t ms)
 {
-    double bits = 10.0 * (double)(tx + rx);
-    printf("%zu image bytes in %.3f s over %s (%.2f MB/s); on the link %llu bytes out, %llu back\n", len,
-           (double)ms / 1000.0, wdr_transport_name(conn->t), ms > 0 ? (double)len / 1000.0 / (double)ms : 0.0,
-           (unsigned long long)tx, (unsigned long long)rx);
+    double bits = 10.0 * (double)(tx + rx), kb_s = ms > 0 ? (double)len / (double)ms : 0.0; /* bytes/ms */
+    printf("%zu image bytes in %.3f s over %s (%.*f %s); on the link %llu bytes out, %llu back\n", len,
+           (double)ms / 1000.0, wdr_transport_name(conn->t), kb_s < 1000 ? 1 : 2, kb_s < 1000 ? kb_s : kb_s / 1000,
+           kb_s < 1000 ? "kB/s" : "MB/s", (unsigned long long)tx, (unsigned long long)rx);
     printf("the same bytes on a UART (wire time alone): %.1f s at 115200 baud, %.2f s at 921600 baud\n",
            bits / 115200.0, bits / 921600.0);
 }
@@ -157,7 +162,8 @@ static void print_upload_time(const wdrctl_conn *conn, size_t len, uint64_t tx, 
 /* The link failed on FW_COMMIT: ask again whether the image is pending. */
 static int fw_commit_outcome(wdrctl_conn *conn, const fw_opts *o, const char *path, const uint8_t *img, size_t len)
 {
-    const uint8_t *sha = img + len - WDR_IMAGE_TRAILER_SIZE + 8;
+    const uint8_t *sha = len >= WDR_IMAGE_HEADER_SIZE + WDR_IMAGE_TRAILER_SIZE ? img + len - WDR_IMAGE_TRAILER_SIZE + 8
+                                                                              : NULL; /* a --no-verify scrap */
     fprintf(stderr, "wdrctl: %s; %s was sent in full, asking the board whether it took it\n", conn->c->err, path);
     wdrctl_disconnect(conn);
     wdrctl_conn again;
@@ -166,7 +172,7 @@ static int fw_commit_outcome(wdrctl_conn *conn, const fw_opts *o, const char *pa
         return wdrctl_fail(EX_TEMPFAIL, "outcome unknown: the board did not answer again; run 'wdrctl fw status'");
     int rc = wdr_client_fw_status(again.c, &st), code = EX_IOERR;
     for (int s = 0; rc == WDR_OK && s < 2; s++)
-        if (st.slot[s].state == 2 && !memcmp(st.slot[s].sha256, sha, WDR_SHA256_SIZE)) {
+        if (sha && st.slot[s].state == SLOT_PENDING && !memcmp(st.slot[s].sha256, sha, WDR_SHA256_SIZE)) {
             printf("%s: pending in slot %s (the board reports it after the link failed)\n", path, slot_letter(s));
             code = EX_OK;
         }
@@ -225,7 +231,8 @@ int cmd_fw_upload(int argc, char **argv)
 
 /* ---- fw status -------------------------------------------------------------------------------------- */
 
-static const char *const slot_states[] = {"empty", "incomplete", "pending", "testing", "confirmed", "rejected", "invalid"};
+static const char *const slot_states[] = {"empty",     "incomplete", "pending", "testing",
+                                          "confirmed", "rejected",   "invalid"};
 static const char *const reset_causes[] = {"power-on", "software", "watchdog", "fault", "unknown"};
 static const char *const reject_reasons[] = {"", "unconfirmed after its test boots", "reverted", "failed verification"};
 
@@ -243,13 +250,13 @@ static void slot_version(const wdr_fw_slot_report *s, char *out, size_t cap)
 static void slot_note(const wdr_fw_slot_report *s, char *out, size_t cap)
 {
     out[0] = 0;
-    if (s->state == 1)
+    if (s->state == SLOT_INCOMPLETE)
         snprintf(out, cap, " (an upload that never verified: never booted)");
-    else if (s->state == 5 && s->reject_reason == 3 && s->verify_err)
-        snprintf(out, cap, " (%s: %s)", reject_reasons[3], wdr_strerror(s->verify_err));
-    else if (s->state == 5 && s->reject_reason > 0 && s->reject_reason < 4)
+    else if (s->state == SLOT_REJECTED && s->reject_reason == REJECT_INVALID && s->verify_err)
+        snprintf(out, cap, " (%s: %s)", reject_reasons[REJECT_INVALID], wdr_strerror(s->verify_err));
+    else if (s->state == SLOT_REJECTED && s->reject_reason > 0 && s->reject_reason <= REJECT_INVALID)
         snprintf(out, cap, " (%s)", reject_reasons[s->reject_reason]);
-    else if (s->state == 6 && s->verify_err)
+    else if (s->state == SLOT_INVALID && s->verify_err)
         snprintf(out, cap, " (%s)", wdr_strerror(s->verify_err));
 }
 
@@ -257,7 +264,7 @@ static void print_slot(int n, const wdr_fw_slot_report *s, int running)
 {
     char ver[48], sha[17], note[96];
     slot_note(s, note, sizeof note);
-    if (s->state == 0) {
+    if (s->state == SLOT_EMPTY) {
         printf("slot %s:           empty\n", slot_letter(n));
         return;
     }
@@ -279,7 +286,7 @@ static void print_fw_status_text(const wdr_fw_status_report *st, const wdr_info 
                st->flags & WDR_FW_STATUS_F_TESTING ? ": confirm it (wdrctl fw confirm) or it reverts" : "");
     for (int s = 0; s < 2; s++)
         print_slot(s, &st->slot[s], st->running == s);
-    if (st->reset_cause == 3)
+    if (st->reset_cause == RESET_FAULT)
         printf("last reset:       fault at PC 0x%08x, CFSR 0x%08x\n", st->fault_pc, st->fault_status);
     else
         printf("last reset:       %s\n", cause_word(st->reset_cause));

@@ -80,10 +80,16 @@ int wdrctl_fw_check_exit(int rc)
 /* The board named by the build's board file (.../boards/NAME/board.json). */
 static const char *build_board(char *out, size_t cap)
 {
-    const char *path = WDR_DEFAULT_BOARD, *end = strrchr(path, '/'), *start = end;
-    while (start && start > path && start[-1] != '/')
-        start--;
-    snprintf(out, cap, "%.*s", end && start ? (int)(end - start) : 0, start ? start : "");
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s", WDR_DEFAULT_BOARD);
+    char *slash = strrchr(dir, '/');
+    if (slash)
+        *slash = 0; /* the folder of board.json */
+    slash = strrchr(dir, '/');
+    const char *name = slash ? slash + 1 : dir;
+    size_t n = strlen(name) < cap ? strlen(name) : cap - 1;
+    memcpy(out, name, n);
+    out[n] = 0;
     return out;
 }
 
@@ -209,8 +215,11 @@ static void print_json(const char *path, const wdr_fw_image_report *r, const wdr
     wdr_fw_hex(r->trl.key_hash, WDR_SHA256_SIZE, hex);
     cJSON_AddStringToObject(o, "key_hash", hex);
     cJSON_AddBoolToObject(o, "hash_ok", r->hash_ok);
-    cJSON_AddStringToObject(o, "signature",
-                            !r->key_checked ? "not checked" : !r->key_matches ? "other key" : r->signature_ok ? "holds" : "fails");
+    const char *verdict = !r->key_checked  ? "not checked"
+                          : !r->key_matches ? "other key"
+                          : r->signature_ok ? "holds"
+                                            : "fails";
+    cJSON_AddStringToObject(o, "signature", verdict);
     if (key)
         cJSON_AddStringToObject(o, "key", key->name);
     char *text = cJSON_Print(o);

@@ -40,6 +40,7 @@ sign v2.img 2.0.0+2 6
 sign other-key.img 2.0.0+2 6 other.pem
 sign downgrade.img 2.0.0+2 4
 sign other-board.img 2.0.0+2 6 "$dev" mps2-an500
+sign v3.img 3.0.0+3 7
 cp v2.img flipped.img && printf '\001' | dd of=flipped.img bs=1 seek=5000 conv=notrunc 2>/dev/null
 head -c 200000 v2.img > truncated.img
 
@@ -80,7 +81,12 @@ expect 0 "slot B:           pending    v2.0.0+2" "$ctl" fw status
 expect 0 "was v1.0.0+1 in slot A, now v2.0.0+2 in slot B (test boot)" "$ctl" reboot
 expect 0 "firmware:      2.0.0+2, slot B, test boot" "$ctl" info
 expect 0 "slot B:           testing    v2.0.0+2" "$ctl" fw status
+expect 65 "v3.img: refused by the board: the running image is a test boot: confirm it (wdrctl fw confirm)" \
+    "$ctl" fw upload v3.img
 expect 0 "v2.0.0+2 in slot B (test boot): confirmed, it stays" "$ctl" fw confirm
+# v1's counter (5) is below the floor v2's confirm raised (6): nothing valid to go back to
+expect 65 "fw revert: refused by the board: the other slot holds no valid confirmed image: nothing to revert to" \
+    "$ctl" fw revert
 expect 0 "now v2.0.0+2 in slot B$" "$ctl" reboot
 expect 0 "firmware:      2.0.0+2, slot B$" "$ctl" info
 expect 0 "last reset:       software" "$ctl" fw status
@@ -89,4 +95,18 @@ printf '%s\n' "$out" | grep -q "security floor:   6" || fail "the floor did not 
 printf '%s\n' "$out" | grep -q "development key: not for production" || fail "the development key is not named"
 echo "fw status as a user sees it:"
 printf '%s\n' "$out"
+
+# ---- revert: a v2 of the same counter confirmed, then given up: the next boot runs v1 ----
+kill "$pid"; wait "$pid" 2>/dev/null
+sign same.img 2.0.0+9 5
+"$simboard" --board "$src/boards/$board/board.json" --scene "$src/sim/scenes/window.json" --socket "$d/b.sock" \
+    --flash "$d/flash2.bin" --firmware v1.img > simboard.log 2>&1 &
+pid=$!
+expect 0 "firmware:      1.0.0+1, slot A" "$ctl" --wait 20000 info
+expect 0 "stored in slot B, pending" "$ctl" fw upload same.img
+expect 0 "now v2.0.0+9 in slot B (test boot)" "$ctl" reboot
+expect 0 "confirmed, it stays" "$ctl" fw confirm
+expect 0 "v2.0.0+9 in slot B: given up: the next boot runs the other slot" "$ctl" fw revert
+expect 0 "now v1.0.0+1 in slot A$" "$ctl" reboot
+expect 0 "slot B:           rejected   v2.0.0+9 .*(reverted)" "$ctl" fw status
 echo "ok: field update through wdrctl"

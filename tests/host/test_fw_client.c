@@ -96,22 +96,51 @@ static void assert_has(const char *text, const char *part)
 static int refuse_commit, refuse_begin, refuse_confirm, proto_minor = 4, rebooted;
 static int stale_sessions, sessions_after_reboot; /* hosts the old boot still answers after REBOOT */
 
-static int new_boot(void) { return rebooted && sessions_after_reboot > stale_sessions; }
+static int new_boot(void)
+{
+    return rebooted && sessions_after_reboot > stale_sessions;
+}
 static uint32_t got_len, got_crc;
+static uint8_t got_img[8192];
+static int hangup_on_commit, commit_took; /* the link dies on FW_COMMIT; whether the board took it */
 
 static void reply_info(scripted_board *b, const wdr_packet *req)
 {
-    wdr_info info = {.proto_major = WDR_PROTO_VERSION_MAJOR, .proto_minor = (uint16_t)proto_minor, .fw_major = 1,
-                     .fw_minor = 0, .fw_patch = 0, .fw_build = 1, .fw_slot = 0, .fw_flags = 0,
-                     .sensor_id = 0x1234, .width = 16, .height = 8, .adc_bits = 12, .dac_bits = 12,
-                     .max_payload = WDR_PROTO_MAX_PAYLOAD, .lut_capacity = 1 << 20, .cal_capacity = 1 << 22,
+    wdr_info info = {.proto_major = WDR_PROTO_VERSION_MAJOR,
+                     .proto_minor = (uint16_t)proto_minor,
+                     .fw_major = 1,
+                     .fw_minor = 0,
+                     .fw_patch = 0,
+                     .fw_build = 1,
+                     .fw_slot = 0,
+                     .fw_flags = 0,
+                     .sensor_id = 0x1234,
+                     .width = 16,
+                     .height = 8,
+                     .adc_bits = 12,
+                     .dac_bits = 12,
+                     .max_payload = WDR_PROTO_MAX_PAYLOAD,
+                     .lut_capacity = 1 << 20,
+                     .cal_capacity = 1 << 22,
                      .row_time_ns = 1000};
     if (rebooted)
         sessions_after_reboot++; /* every host starts with INFO */
-    if (new_boot()) /* the pending image now runs as a test boot */
-        info = (wdr_info){.proto_major = 1, .proto_minor = 4, .fw_major = 2, .fw_minor = 0, .fw_patch = 0,
-                          .fw_build = 2, .fw_slot = 1, .fw_flags = 1, .sensor_id = 0x1234, .width = 16, .height = 8,
-                          .adc_bits = 12, .dac_bits = 12, .max_payload = WDR_PROTO_MAX_PAYLOAD, .row_time_ns = 1000};
+    if (new_boot())              /* the pending image now runs as a test boot */
+        info = (wdr_info){.proto_major = 1,
+                          .proto_minor = 4,
+                          .fw_major = 2,
+                          .fw_minor = 0,
+                          .fw_patch = 0,
+                          .fw_build = 2,
+                          .fw_slot = 1,
+                          .fw_flags = 1,
+                          .sensor_id = 0x1234,
+                          .width = 16,
+                          .height = 8,
+                          .adc_bits = 12,
+                          .dac_bits = 12,
+                          .max_payload = WDR_PROTO_MAX_PAYLOAD,
+                          .row_time_ns = 1000};
     strcpy(info.name, "fake");
     uint8_t p[WDR_INFO_SIZE];
     wdr_info_pack(&info, p);
@@ -120,14 +149,28 @@ static void reply_info(scripted_board *b, const wdr_packet *req)
 
 static void reply_fw_status(scripted_board *b, const wdr_packet *req)
 {
-    wdr_fw_status_report r = {.running = 0, .reset_cause = 3, .flags = WDR_FW_STATUS_F_DEV_KEY, .max_attempts = 3,
-                              .fault_pc = 0x00001234u, .fault_status = 0x00008200u, .floor = 1,
+    wdr_fw_status_report r = {.running = 0,
+                              .reset_cause = 3,
+                              .flags = WDR_FW_STATUS_F_DEV_KEY,
+                              .max_attempts = 3,
+                              .fault_pc = 0x00001234u,
+                              .fault_status = 0x00008200u,
+                              .floor = 1,
                               .boots = new_boot() ? 6u : 5u,
                               .key_hash = {0x4d, 0x08, 0x20, 0xc8}};
-    r.slot[0] = (wdr_fw_slot_report){.state = 4, .ver_major = 1, .ver_build = 1, .security_counter = 1,
-                                     .image_size = 4096, .sha256 = {0xab, 0xcd}};
-    r.slot[1] = (wdr_fw_slot_report){.state = 5, .reject_reason = 2, .ver_major = 2, .ver_build = 2,
-                                     .security_counter = 2, .image_size = 8192, .sha256 = {0x12, 0x34}};
+    r.slot[0] = (wdr_fw_slot_report){
+        .state = 4, .ver_major = 1, .ver_build = 1, .security_counter = 1, .image_size = 4096, .sha256 = {0xab, 0xcd}};
+    r.slot[1] = (wdr_fw_slot_report){.state = 5,
+                                     .reject_reason = 2,
+                                     .ver_major = 2,
+                                     .ver_build = 2,
+                                     .security_counter = 2,
+                                     .image_size = 8192,
+                                     .sha256 = {0x12, 0x34}};
+    if (commit_took && got_len >= 200) { /* what the lost commit left: slot B pending with our image */
+        r.slot[1].state = 2;
+        memcpy(r.slot[1].sha256, got_img + got_len - WDR_IMAGE_TRAILER_SIZE + 8, 32);
+    }
     uint8_t p[WDR_FW_STATUS_SIZE];
     wdr_fw_status_pack(&r, p);
     fake_reply(b, req, WDR_ST_OK, p, sizeof p);
@@ -156,11 +199,17 @@ static int script_fw(scripted_board *b, const wdr_packet *req, int n)
         fake_reply(b, req, refuse_begin, NULL, 0);
         break;
     case WDR_CMD_FW_CHUNK:
+        if (got_len + req->h.length - 4 <= sizeof got_img)
+            memcpy(got_img + got_len, req->payload + 4, req->h.length - 4);
         got_crc = wdr_crc32(got_crc, req->payload + 4, req->h.length - 4);
         got_len += req->h.length - 4;
         fake_reply(b, req, WDR_ST_OK, NULL, 0);
         break;
-    case WDR_CMD_FW_COMMIT: reply_commit(b, req); break;
+    case WDR_CMD_FW_COMMIT:
+        if (hangup_on_commit)
+            return -1; /* commit_took says whether the board got that far */
+        reply_commit(b, req);
+        break;
     case WDR_CMD_FW_STATUS: reply_fw_status(b, req); break;
     case WDR_CMD_FW_CONFIRM:
     case WDR_CMD_FW_REVERT: fake_reply(b, req, refuse_confirm, NULL, 0); break;
@@ -180,6 +229,7 @@ static const char *start_board(scripted_board *b, char *addr, size_t cap, int se
     memset(b, 0, sizeof *b);
     b->sessions = sessions;
     refuse_commit = refuse_begin = refuse_confirm = rebooted = stale_sessions = sessions_after_reboot = 0;
+    hangup_on_commit = commit_took = 0;
     proto_minor = 4;
     assert_int_equal(scripted_board_start_listen(b, path, script_fw), 0);
     snprintf(addr, cap, "sim:%s", path);
@@ -262,6 +312,29 @@ static void upload_stores_and_reports_time(void **state)
     assert_int_equal(b.opcodes[WDR_CMD_FW_CHUNK], 2);
 }
 
+/* The link dies on FW_COMMIT: wdrctl asks again and says whether the image is pending. */
+static void lost_commit_answer_is_asked_again(void **state)
+{
+    (void)state;
+    for (int took = 1; took >= 0; took--) {
+        scripted_board b;
+        char addr[160];
+        const char *args[] = {"--device", start_board(&b, addr, sizeof addr, 2), "fw", "upload", img_path, NULL};
+        hangup_on_commit = 1;
+        commit_took = took;
+        int rc = run_wdrctl(args);
+        scripted_board_stop(&b);
+        assert_int_equal(b.opcodes[WDR_CMD_FW_STATUS], 1);
+        if (took) {
+            assert_int_equal(rc, EX_OK);
+            assert_has(out_text, "v2.img: pending in slot B (the board reports it after the link failed)");
+        } else {
+            assert_int_equal(rc, EX_IOERR);
+            assert_has(err_text, "v2.img: not pending on the board");
+        }
+    }
+}
+
 typedef struct refusal {
     int status;
     int at_begin;
@@ -321,8 +394,8 @@ static void bad_files_never_reach_the_board(void **state)
     assert_int_equal(b.opcodes[WDR_CMD_FW_BEGIN], 0);
 
     /* --no-verify sends it all the same: what the board's own refusals are tested with */
-    const char *unchecked[] = {"--device", start_board(&b, addr, sizeof addr, 1), "fw", "upload", "--no-verify",
-                               short_path, NULL};
+    const char *unchecked[] = {
+        "--device", start_board(&b, addr, sizeof addr, 1), "fw", "upload", "--no-verify", short_path, NULL};
     refuse_commit = WDR_ST_TRUNCATED;
     rc = run_wdrctl(unchecked);
     scripted_board_stop(&b);
@@ -425,7 +498,8 @@ static void reboot_reconnects_and_prints_the_new_image(void **state)
     assert_has(out_text, "now v2.0.0+2 in slot B (test boot)");
 
     /* a board that never comes back: the wait ends with the reason and what ran */
-    const char *gone[] = {"--device", start_board(&b, addr, sizeof addr, 1), "--wait", "300", "--timeout", "300", "reboot", NULL};
+    const char *gone[] = {
+        "--device", start_board(&b, addr, sizeof addr, 1), "--wait", "300", "--timeout", "300", "reboot", NULL};
     rc = run_wdrctl(gone);
     scripted_board_stop(&b);
     assert_int_equal(rc, EX_TEMPFAIL);
@@ -449,6 +523,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(upload_stores_and_reports_time),
         cmocka_unit_test(each_refusal_names_its_reason),
+        cmocka_unit_test(lost_commit_answer_is_asked_again),
         cmocka_unit_test(bad_files_never_reach_the_board),
         cmocka_unit_test(old_board_is_told_to_flash_by_debugger),
         cmocka_unit_test(status_shows_slots_and_the_fault),

@@ -28,7 +28,7 @@
 #define DEV_PUB WDR_DEV_KEY_DIR "/dev-signing-key.NOT-FOR-PRODUCTION.pub.pem"
 #define APP_LEN 1000u /* padded to 1008 */
 
-static char dir[64], other_key[128], p384_key[128], ed_key[128], junk_key[128];
+static char dir[64], other_key[128], p384_key[128], ed_key[128], junk_key[128], enc_key[128], comp_pub[128];
 static uint8_t app[APP_LEN];
 
 static void write_pkey(const char *path, EVP_PKEY *k)
@@ -56,6 +56,25 @@ static int setup(void **state)
     assert_non_null(f);
     fputs("-----BEGIN PRIVATE KEY-----\nnot base64 at all\n-----END PRIVATE KEY-----\n", f);
     fclose(f);
+    /* the other key encrypted with a passphrase; the development key's public half, compressed */
+    snprintf(enc_key, sizeof enc_key, "%s/encrypted.pem", dir);
+    snprintf(comp_pub, sizeof comp_pub, "%s/compressed.pub.pem", dir);
+    f = fopen(other_key, "r");
+    EVP_PKEY *k = PEM_read_PrivateKey(f, NULL, NULL, NULL);
+    fclose(f);
+    f = fopen(enc_key, "w");
+    assert_int_equal(PEM_write_PrivateKey(f, k, EVP_aes_256_cbc(), (unsigned char *)"secret", 6, NULL, NULL), 1);
+    fclose(f);
+    EVP_PKEY_free(k);
+    f = fopen(DEV_PUB, "r");
+    k = PEM_read_PUBKEY(f, NULL, NULL, NULL);
+    fclose(f);
+    assert_int_equal(EVP_PKEY_set_utf8_string_param(k, "point-format", "compressed"), 1);
+    assert_int_equal(i2d_PUBKEY(k, NULL), 59); /* 91 uncompressed */
+    f = fopen(comp_pub, "w");
+    assert_int_equal(PEM_write_PUBKEY(f, k), 1);
+    fclose(f);
+    EVP_PKEY_free(k);
     for (unsigned i = 0; i < APP_LEN; i++)
         app[i] = (uint8_t)(i * 37u + 11u);
     return 0;
@@ -64,8 +83,8 @@ static int setup(void **state)
 static int teardown(void **state)
 {
     (void)state;
-    const char *names[] = {other_key, p384_key, ed_key, junk_key};
-    for (size_t i = 0; i < 4; i++)
+    const char *names[] = {other_key, p384_key, ed_key, junk_key, enc_key, comp_pub};
+    for (size_t i = 0; i < 6; i++)
         unlink(names[i]);
     rmdir(dir);
     return 0;
@@ -272,10 +291,10 @@ static void other_key_fails_the_key_hash(void **state)
 
 typedef struct bad_case {
     const char *what;
-    size_t at;          /* byte to set (SIZE_MAX: none) */
-    uint32_t value;     /* little-endian, width bytes */
+    size_t at;      /* byte to set (SIZE_MAX: none) */
+    uint32_t value; /* little-endian, width bytes */
     int width;
-    long len_delta;     /* bytes added (or removed) at the end */
+    long len_delta; /* bytes added (or removed) at the end */
     int code;
     const char *message;
 } bad_case;
@@ -293,12 +312,14 @@ static void malformed_fields_are_named(void **state)
         {"image size 17", 8, 17, 4, 0, WDR_E_INVAL, "APP.img: header field image_size: 17 is not a multiple of 16"},
         {"image size 0", 8, 0, 4, 0, WDR_E_INVAL, "APP.img: header field image_size: 0 is below 16"},
         {"image size huge", 8, (16u << 20) + 16u, 4, 0, WDR_E_TOO_LARGE, "header field image_size: 16777232 is over"},
-        {"load addr", 12, 0x400002u, 4, 0, WDR_E_INVAL, "APP.img: header field load_addr: 0x00400002 is not a multiple of 4"},
+        {"load addr", 12, 0x400002u, 4, 0, WDR_E_INVAL,
+         "APP.img: header field load_addr: 0x00400002 is not a multiple of 4"},
         {"flags", 28, 0x11u, 4, 0, WDR_E_INVAL, "APP.img: header field flags: 0x00000011 has unknown bits 0x00000010"},
         {"board blank", 32, ' ', 1, 0, WDR_E_INVAL, "APP.img: header field board: byte 0 is 0x20"},
         {"board tail", 47, 'x', 1, 0, WDR_E_INVAL, "APP.img: header field board: byte 15 after the name's NUL is 0x78"},
         {"reserved", 50, 1, 1, 0, WDR_E_INVAL, "APP.img: header field reserved: byte 50 is 0x01"},
-        {"truncated", SIZE_MAX, 0, 0, -1, WDR_E_TRUNCATED, "APP.img: 1207 bytes, but header field image_size says 1208"},
+        {"truncated", SIZE_MAX, 0, 0, -1, WDR_E_TRUNCATED,
+         "APP.img: 1207 bytes, but header field image_size says 1208"},
         {"trailing bytes", SIZE_MAX, 0, 0, 16, WDR_E_INVAL, "bytes after the trailer"},
         {"trailer magic", trl, 0, 4, 0, WDR_E_CORRUPT, "APP.img: trailer field magic: 0x00000000, not 0x4c544957"},
         {"trailer size", trl + 4, 100, 2, 0, WDR_E_INVAL, "APP.img: trailer field trailer_size: 100, not 136"},
@@ -343,6 +364,17 @@ static void bad_sign_parameters_are_refused(void **state)
     assert_non_null(strstr(err, "header field load_addr: 0x00000401"));
     assert_int_equal(wdr_fw_sign("app.bin", app, 0, &params, &k, &img, &len, err, sizeof err), WDR_E_INVAL);
     assert_non_null(strstr(err, "app.bin: empty file"));
+    const uint8_t elf[8] = {0x7f, 'E', 'L', 'F', 1, 1, 1, 0};
+    assert_int_equal(wdr_fw_sign("app.elf", elf, sizeof elf, &params, &k, &img, &len, err, sizeof err), WDR_E_INVAL);
+    assert_non_null(strstr(err, "app.elf: an ELF file"));
+    uint8_t *signed_once = NULL;
+    size_t once_len = 0;
+    assert_int_equal(wdr_fw_sign("app.bin", app, APP_LEN, &params, &k, &signed_once, &once_len, err, sizeof err),
+                     WDR_OK);
+    assert_int_equal(wdr_fw_sign("app.img", signed_once, once_len, &params, &k, &img, &len, err, sizeof err),
+                     WDR_E_INVAL);
+    assert_non_null(strstr(err, "app.img: already a signed image"));
+    free(signed_once);
     wdr_fw_key_free(&k);
     k = load(DEV_PUB, 0);
     assert_int_equal(wdr_fw_sign("app.bin", app, APP_LEN, &params, &k, &img, &len, err, sizeof err), WDR_E_INVAL);
@@ -352,9 +384,9 @@ static void bad_sign_parameters_are_refused(void **state)
 static void keys_other_than_p256_are_refused_by_name(void **state)
 {
     (void)state;
-    const char *paths[] = {p384_key, ed_key, junk_key};
-    const char *says[] = {"not an ECDSA P-256 key", "not an ECDSA P-256 key", "not a PEM key"};
-    for (size_t i = 0; i < 3; i++) {
+    const char *paths[] = {p384_key, ed_key, junk_key, enc_key};
+    const char *says[] = {"not an ECDSA P-256 key", "not an ECDSA P-256 key", "not a PEM key", "an encrypted one"};
+    for (size_t i = 0; i < 4; i++) {
         wdr_fw_key k;
         char err[512] = "";
         assert_int_equal(wdr_fw_key_load(paths[i], 0, &k, err, sizeof err), WDR_E_INVAL);
@@ -369,6 +401,12 @@ static void keys_other_than_p256_are_refused_by_name(void **state)
     assert_non_null(strstr(err, "a public key cannot sign"));
     k = load(DEV_PUB, 0);
     assert_true(k.is_dev);
+    /* a public key stored compressed is the same key: the hash is of the uncompressed point */
+    wdr_fw_key c = load(comp_pub, 0);
+    assert_true(c.is_dev);
+    assert_memory_equal(c.hash, k.hash, 32);
+    assert_int_equal(c.point[0], 0x04);
+    wdr_fw_key_free(&c);
     wdr_fw_key_free(&k);
 }
 
@@ -383,8 +421,9 @@ static void versions_parse_strictly(void **state)
     assert_int_equal(v.build, 4294967295u);
     wdr_fw_version_format(&v, text, sizeof text);
     assert_string_equal(text, "255.255.65535+4294967295");
-    const char *bad[] = {"", "1", "1.2", "1.2.3.4", "256.0.0", "0.256.0", "0.0.65536", "1.2.3+", "1.2.3+4294967296",
-                         "-1.2.3", " 1.2.3", "1.2.3 ", "1.2.x", "1..3", "1.2.3-rc1"};
+    const char *bad[] = {
+        "",       "1",      "1.2",    "1.2.3.4", "256.0.0", "0.256.0",  "0.0.65536", "1.2.3+", "1.2.3+4294967296",
+        "-1.2.3", " 1.2.3", "1.2.3 ", "1.2.x",   "1..3",    "1.2.3-rc1"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         if (wdr_fw_version_parse(bad[i], &v) != WDR_E_INVAL)
             fail_msg("'%s' parsed", bad[i]);
@@ -393,14 +432,10 @@ static void versions_parse_strictly(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(sign_and_check_round_trip),
-        cmocka_unit_test(other_key_round_trip_is_not_dev),
-        cmocka_unit_test(flipped_byte_fails_the_hash),
-        cmocka_unit_test(flipped_signature_byte_fails_the_signature),
-        cmocka_unit_test(other_key_fails_the_key_hash),
-        cmocka_unit_test(malformed_fields_are_named),
-        cmocka_unit_test(bad_sign_parameters_are_refused),
-        cmocka_unit_test(keys_other_than_p256_are_refused_by_name),
+        cmocka_unit_test(sign_and_check_round_trip),       cmocka_unit_test(other_key_round_trip_is_not_dev),
+        cmocka_unit_test(flipped_byte_fails_the_hash),     cmocka_unit_test(flipped_signature_byte_fails_the_signature),
+        cmocka_unit_test(other_key_fails_the_key_hash),    cmocka_unit_test(malformed_fields_are_named),
+        cmocka_unit_test(bad_sign_parameters_are_refused), cmocka_unit_test(keys_other_than_p256_are_refused_by_name),
         cmocka_unit_test(versions_parse_strictly),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
