@@ -34,7 +34,7 @@ trap board_cut EXIT
 board_blank
 board_flash "$factory"
 
-running() { ctl info | sed -n 's/^firmware: *\([0-9.]*\)+.*/\1/p'; }
+running() { ctl info | sed -n 's/^firmware: *\([0-9][0-9.]*[0-9]\).*/\1/p'; }
 expect_running() { # VERSION WHEN
     v=$(running)
     [ "$v" = "$1" ] || fail "$2: the board runs '$v', not $1"

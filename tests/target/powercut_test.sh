@@ -26,7 +26,7 @@ now_ms() { echo $(($(date +%s%N) / 1000000)); }
 snapshot() { board_cut; cp "$board_psram" "$dir/$1.psram"; }
 restore() { cp "$dir/$1.psram" "$board_psram"; }
 version() { # what the board runs, or "none" when nothing answers
-    ctl_quick info 2>/dev/null | sed -n 's/^firmware: *\([0-9.]*\)+.*/\1/p' | grep . || echo none
+    ctl_quick info 2>/dev/null | sed -n 's/^firmware: *\([0-9][0-9.]*[0-9]\).*/\1/p' | grep . || echo none
 }
 slot_b() { # state, and its test boots when it has any
     ctl_quick fw status 2>/dev/null | sed -n 's/^slot B: *\([a-z]*\).*attempts \([0-9]*\).*/\1 \2/p; s/^slot B: *\([a-z]*\)$/\1/p' |
