@@ -66,6 +66,9 @@ void wdr_reset_handler(void)
 {
     memcpy(&_data_start, &_data_load, (size_t)((uint8_t *)&_data_end - (uint8_t *)&_data_start));
     memset(&_bss_start, 0, (size_t)((uint8_t *)&_bss_end - (uint8_t *)&_bss_start));
+    /* The vector table is this image's wherever it was loaded (the bootloader sets VTOR too;
+     * a debugger loading the ELF directly does not). */
+    *(volatile uint32_t *)0xE000ED08u = (uint32_t)(uintptr_t)vectors;
     /* CP10/CP11 full access: the correction kernel uses the FPU. */
     *(volatile uint32_t *)0xE000ED88u |= 0xFu << 20;
     __asm volatile("dsb\n isb");

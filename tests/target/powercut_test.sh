@@ -26,11 +26,10 @@ now_ms() { echo $(($(date +%s%N) / 1000000)); }
 snapshot() { board_cut; cp "$board_psram" "$dir/$1.psram"; }
 restore() { cp "$dir/$1.psram" "$board_psram"; }
 version() { # what the board runs, or "none" when nothing answers
-    "$board_wdrctl" info --device "unix:$board_dir/uart.sock" --timeout 3000 --retries 1 --wait 8000 2>/dev/null |
-        sed -n 's/^firmware: *\([0-9.]*\)+.*/\1/p' | grep . || echo none
+    ctl_quick info 2>/dev/null | sed -n 's/^firmware: *\([0-9][0-9.]*[0-9]\).*/\1/p' | grep . || echo none
 }
 slot_b() { # state, and its test boots when it has any
-    ctl fw status 2>/dev/null | sed -n 's/^slot B: *\([a-z]*\).*attempts \([0-9]*\).*/\1 \2/p; s/^slot B: *\([a-z]*\)$/\1/p' |
+    ctl_quick fw status 2>/dev/null | sed -n 's/^slot B: *\([a-z]*\).*attempts \([0-9]*\).*/\1 \2/p; s/^slot B: *\([a-z]*\)$/\1/p' |
         awk '{ print ($2 > 0) ? $1 ", " $2 " test boot(s)" : $1 }'
 }
 
@@ -73,7 +72,8 @@ cut_at() { # PHASE SNAPSHOT DELAY_MS COMMAND...
     board_cut
     board_power_on
     v=$(version)
-    b=$(slot_b)
+    b=
+    [ "$v" = none ] || b=$(slot_b)
     board_cut
     n=$((n + 1))
     case $v in
