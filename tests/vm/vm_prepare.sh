@@ -67,10 +67,10 @@ touch "$dir/kernel.ready"
 
 [ -f "$dir/kernel.ready" ] || fetch_kernel
 
-# The virtual board, built against those headers; its pins come from hal_linux_config.h.
+# The virtual board, built against those headers; its pins come from vboard/vboard_pins.h.
 mod=$dir/wdrvb
 mkdir -p "$mod"
-for f in "$src/tests/vm/vboard/wdrvb.c" "$src/tests/vm/vboard/vboard_model.h" "$src/hal/linux/hal_linux_config.h"; do
+for f in "$src/tests/vm/vboard/wdrvb.c" "$src/tests/vm/vboard/vboard_model.h" "$src/tests/vm/vboard/vboard_pins.h"; do
     cmp -s "$f" "$mod/${f##*/}" || cp "$f" "$mod/" # unchanged sources keep kbuild incremental
 done
 [ -f "$mod/Kbuild" ] || echo 'obj-m := wdrvb.o' >"$mod/Kbuild"

@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: GPL-2.0
 /* wdrvb: the wdrcam virtual board for the VM test. It stands in for the sensor's control lines
  * and converters on a real kernel, so that hal/linux runs unmodified:
- *   - a gpiochip on gpiolib (reset, row select, ADC convert, row address bits: the offsets of
- *     hal/linux/hal_linux_config.h);
+ *   - a gpiochip "wdrvb" on gpiolib (reset, row select, ADC convert, row address bits: the
+ *     offsets and names of vboard_pins.h, which boards/vm-wdrvb/wdr-board.json describes);
  *   - an SPI controller, bus 0, with spidev bound to chip select 0 (ramp DAC) and 1 (column ADC);
  *   - a sensor model (vboard_model.h): the DAC words played since the release of reset are the
  *     ramp, a convert latches the selected row, an ADC read shifts out that row's codes.
- * It counts every protocol error it sees; /sys/devices/platform/wdrvb/counters lists them. */
+ * It counts every protocol error it sees; /sys/devices/platform/wdrvb/counters lists them.
+ * Module parameter unbound_line=N leaves line N unconnected: driving it changes nothing and it
+ * reads 0, as a pin with no wire would (for wdr-board --self-test). */
 #include <linux/gpio/driver.h>
 #include <linux/module.h>
 #include <linux/mutex.h>
@@ -15,18 +17,24 @@
 #include <linux/spi/spi.h>
 #include <linux/vmalloc.h>
 
-#include "hal_linux_config.h"
+#include "vboard_pins.h"
 #include "vboard_model.h"
 
 #define VB_LINES 32u
 #define VB_CS_DAC 0u
 #define VB_CS_ADC 1u
-#define VB_CODE_MAX ((1u << HAL_LINUX_DAC_BITS) - 1u)
+#define VB_CODE_MAX ((1u << VB_DAC_BITS) - 1u)
 
 static struct platform_device *vb_pdev;
 static struct gpio_chip vb_chip;
 static struct spi_controller *vb_ctlr;
 static DEFINE_MUTEX(vb_lock);
+
+static int unbound_line = -1;
+module_param(unbound_line, int, 0444);
+MODULE_PARM_DESC(unbound_line, "a line offset left unconnected (-1: none)");
+
+static const char *vb_line_names[VB_LINES];
 
 static struct {
 	unsigned long lines;      /* line values */
@@ -44,7 +52,7 @@ static struct {
 
 static unsigned int row_address(unsigned long lines)
 {
-	return (lines >> HAL_LINUX_LINE_ROW_ADDR0) & ((1u << HAL_LINUX_ROW_ADDR_BITS) - 1u);
+	return (lines >> VB_LINE_ROW_ADDR0) & ((1u << VB_ROW_ADDR_BITS) - 1u);
 }
 
 /* Called with vb_lock held after the lines changed from old to vb.lines. */
@@ -52,17 +60,17 @@ static void on_edges(unsigned long old)
 {
 	unsigned long rose = vb.lines & ~old, fell = old & ~vb.lines;
 
-	if (fell & BIT(HAL_LINUX_LINE_RESET)) { /* release of reset: t = 0 of a new ramp */
+	if (fell & BIT(VB_LINE_RESET)) { /* release of reset: t = 0 of a new ramp */
 		vb.n_steps = 0;
 		vb.latched_row = -1;
 		vb.resets++;
 	}
-	if (rose & BIT(HAL_LINUX_LINE_ADC_CONVERT)) {
-		if (!(vb.lines & BIT(HAL_LINUX_LINE_ROW_SELECT))) {
+	if (rose & BIT(VB_LINE_ADC_CONVERT)) {
+		if (!(vb.lines & BIT(VB_LINE_ROW_SELECT))) {
 			vb.converts_without_select++;
 			return;
 		}
-		if (row_address(vb.lines) >= HAL_LINUX_HEIGHT) {
+		if (row_address(vb.lines) >= VB_HEIGHT) {
 			vb.bad_row++;
 			return;
 		}
@@ -88,6 +96,8 @@ static void vb_set_multiple(struct gpio_chip *gc, unsigned long *mask, unsigned 
 	mutex_lock(&vb_lock);
 	old = vb.lines;
 	vb.lines = (vb.lines & ~*mask) | (*bits & *mask);
+	if (unbound_line >= 0 && unbound_line < (int)VB_LINES)
+		vb.lines &= ~BIT(unbound_line); /* no wire: it never follows */
 	on_edges(old);
 	mutex_unlock(&vb_lock);
 }
@@ -146,7 +156,7 @@ static void adc_row(u8 *rx, unsigned int len)
 
 	vb.adc_reads++;
 	vb.latched_row = -1; /* one convert, one read */
-	if (!rx || len != HAL_LINUX_WIDTH * 2u) {
+	if (!rx || len != VB_WIDTH * 2u) {
 		vb.bad_lengths++;
 		return;
 	}
@@ -154,7 +164,7 @@ static void adc_row(u8 *rx, unsigned int len)
 		vb.reads_without_convert++;
 	else if (vb.n_steps == 0)
 		vb.reads_without_ramp++;
-	for (col = 0; col < HAL_LINUX_WIDTH; col++) {
+	for (col = 0; col < VB_WIDTH; col++) {
 		u16 code = 0;
 
 		if (row >= 0 && vb.n_steps)
@@ -184,7 +194,7 @@ static int add_spidev(unsigned int cs, const char *name)
 	if (!spi)
 		return -ENOMEM;
 	spi->chip_select = cs;
-	spi->max_speed_hz = HAL_LINUX_SPI_HZ;
+	spi->max_speed_hz = VB_SPI_HZ;
 	spi->mode = SPI_MODE_0;
 	strscpy(spi->modalias, name, sizeof spi->modalias);
 	spi->driver_override = kstrdup("spidev", GFP_KERNEL);
@@ -250,9 +260,12 @@ static int __init vb_init(void)
 	if (rc)
 		goto fail;
 
+	vb_line_names[VB_LINE_RESET] = VB_NAME_RESET;
+	vb_line_names[VB_LINE_ROW_SELECT] = VB_NAME_ROW_SELECT;
+	vb_line_names[VB_LINE_ADC_CONVERT] = VB_NAME_ADC_CONVERT;
 	vb_chip = (struct gpio_chip){
 		.label = "wdrvb", .parent = &vb_pdev->dev, .owner = THIS_MODULE, .base = -1,
-		.ngpio = VB_LINES, .can_sleep = true, .get = vb_get, .set = vb_set,
+		.ngpio = VB_LINES, .names = vb_line_names, .can_sleep = true, .get = vb_get, .set = vb_set,
 		.set_multiple = vb_set_multiple, .direction_output = vb_direction_output,
 		.direction_input = vb_direction_input, .get_direction = vb_get_direction,
 	};
@@ -271,7 +284,7 @@ static int __init vb_init(void)
 	vb_ctlr->num_chipselect = 2;
 	vb_ctlr->mode_bits = SPI_CPOL | SPI_CPHA;
 	vb_ctlr->bits_per_word_mask = SPI_BPW_MASK(8);
-	vb_ctlr->max_speed_hz = HAL_LINUX_SPI_HZ;
+	vb_ctlr->max_speed_hz = VB_SPI_HZ;
 	vb_ctlr->transfer_one = vb_transfer_one;
 	rc = spi_register_controller(vb_ctlr);
 	if (rc) {
@@ -285,7 +298,7 @@ static int __init vb_init(void)
 	if (rc)
 		goto fail;
 	pr_info("wdrvb: gpiochip base %d, spi bus 0 (DAC cs0, ADC cs1), %ux%u sensor model\n",
-		vb_chip.base, HAL_LINUX_WIDTH, HAL_LINUX_HEIGHT);
+		vb_chip.base, VB_WIDTH, VB_HEIGHT);
 	return 0;
 fail:
 	pr_err("wdrvb: init failed: %d\n", rc);
