@@ -16,6 +16,7 @@
 #include <linux/slab.h>
 #include <linux/spi/spi.h>
 #include <linux/vmalloc.h>
+#include <linux/version.h>
 
 #include "vboard_pins.h"
 #include "vboard_model.h"
@@ -125,6 +126,50 @@ static int vb_get_direction(struct gpio_chip *gc, unsigned int offset)
 	return GPIO_LINE_DIRECTION_OUT;
 }
 
+/* ---- Kernel API differences (6.1 and 6.12 both run this module) ---------------------------- */
+
+/* Chip select accessors arrived in 6.3 (multiple chip selects per device). */
+static u8 vb_cs(const struct spi_device *spi)
+{
+#if LINUX_VERSION_CODE >= KERNEL_VERSION(6, 3, 0)
+	return spi_get_chipselect(spi, 0);
+#else
+	return spi->chip_select;
+#endif
+}
+
+/* From 6.9 a device has SPI_CS_CNT_MAX chip select slots and the core compares every slot of
+ * every device on the bus: the unused ones must say "none" (0xff, the core's SPI_INVALID_CS),
+ * or the second device collides with the first one's slot 0. */
+static void vb_set_cs(struct spi_device *spi, u8 cs)
+{
+#if LINUX_VERSION_CODE >= KERNEL_VERSION(6, 3, 0)
+	spi_set_chipselect(spi, 0, cs);
+#ifdef SPI_CS_CNT_MAX
+	{
+		unsigned int i;
+
+		for (i = 1; i < SPI_CS_CNT_MAX; i++)
+			spi_set_chipselect(spi, i, 0xff);
+	}
+#endif
+#else
+	spi->chip_select = cs;
+#endif
+}
+
+/* driver_override moved from spi_device into struct device in the 6.12 stable series; kbuild
+ * finds which (VB_DEVICE_DRIVER_OVERRIDE, see tests/vm/vm_prepare.sh). */
+static int vb_bind_spidev(struct spi_device *spi)
+{
+#ifdef VB_DEVICE_DRIVER_OVERRIDE
+	return device_set_driver_override(&spi->dev, "spidev");
+#else
+	spi->driver_override = kstrdup("spidev", GFP_KERNEL);
+	return spi->driver_override ? 0 : -ENOMEM;
+#endif
+}
+
 /* ---- Converters on SPI ----------------------------------------------------------------------- */
 
 static void dac_words(const u8 *tx, unsigned int len)
@@ -177,7 +222,7 @@ static void adc_row(u8 *rx, unsigned int len)
 static int vb_transfer_one(struct spi_controller *ctlr, struct spi_device *spi, struct spi_transfer *t)
 {
 	mutex_lock(&vb_lock);
-	if (spi->chip_select == VB_CS_DAC)
+	if (vb_cs(spi) == VB_CS_DAC)
 		dac_words(t->tx_buf, t->len);
 	else
 		adc_row(t->rx_buf, t->len);
@@ -193,12 +238,13 @@ static int add_spidev(unsigned int cs, const char *name)
 
 	if (!spi)
 		return -ENOMEM;
-	spi->chip_select = cs;
+	vb_set_cs(spi, cs);
 	spi->max_speed_hz = VB_SPI_HZ;
 	spi->mode = SPI_MODE_0;
 	strscpy(spi->modalias, name, sizeof spi->modalias);
-	spi->driver_override = kstrdup("spidev", GFP_KERNEL);
-	rc = spi->driver_override ? spi_add_device(spi) : -ENOMEM;
+	rc = vb_bind_spidev(spi);
+	if (!rc)
+		rc = spi_add_device(spi);
 	if (rc)
 		spi_dev_put(spi);
 	return rc;
