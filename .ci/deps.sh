@@ -4,7 +4,8 @@
 WDR_PACKAGES="build-essential cmake pkg-config libcjson-dev libpng-dev libstb-dev libopenexr-dev \
 libcmocka-dev libusb-1.0-0-dev libgpiod-dev gnuplot-nox gcc-arm-none-eabi libnewlib-arm-none-eabi \
 clang-tidy cppcheck groff-base qemu-system-arm \
-qemu-system-x86 busybox-static cpio kmod xz-utils systemd clang-14 libclang-rt-14-dev"
+qemu-system-x86 busybox-static cpio kmod xz-utils systemd clang-14 libclang-rt-14-dev \
+libmbedtls-dev libssl-dev openssl"
 # tests/vm also fetches Debian's current kernels (bookworm's from the system's lists, trixie's
 # and libgpiod 2.x from bookworm-backports through a private sources list in the build folder)
 # with apt-get download, no install; it builds its module with gcc-12. systemd: for

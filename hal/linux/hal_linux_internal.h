@@ -44,6 +44,9 @@ int lx_spi_fd(int adc); /* the DAC's (0) or the column ADC's (1) spidev */
  * the ramp, the USB threads and endpoints, the devices. */
 void lx_shutdown(void);
 
+/* hal_reset's exit status (EX_TEMPFAIL), which wdr-board.service restarts. */
+#define LX_EXIT_RESET 75
+
 /* Wake hal_wait_for_event from a signal handler (async-signal-safe). */
 void lx_wake_from_signal(void);
 

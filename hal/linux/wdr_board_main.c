@@ -42,7 +42,7 @@ static const cli_section sections[] = {
     {"EXIT STATUS", "0 after a stop signal or a passed self-test; 1 when the board's bring-up or the self-test "
                     "fails (the message names the device, the line or call, and errno); 64 on a bad command "
                     "line; 65 on a bad board description (the message names the file, field and value); 66 "
-                    "when it cannot be read."},
+                    "when it cannot be read; 75 after a REBOOT request (the service restarts it)."},
     {"SEE ALSO", "wdrctl(1), wdr-simboard(1), wdr-gadget(1), gpioinfo(1)"},
     {NULL, NULL}};
 static const cli_program board_program = {
