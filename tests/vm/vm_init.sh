@@ -173,6 +173,41 @@ check_sigterm() {
     capture_check sigterm $CAL_GAIN
 }
 
+# What wdr-board.service does, in a loop: start wdr-board, bind the gadget, restart it when it
+# exits with 75 (hal_reset: a REBOOT request).
+supervise() {
+    local rc
+    while :; do
+        $BIN --config $CONFIG >>/tmp/board.log 2>&1 &
+        echo $! >/tmp/board.pid
+        wdr-gadget bind >/dev/null 2>&1
+        wait $(cat /tmp/board.pid); rc=$?
+        echo "supervisor: $BIN exited with $rc" >>/tmp/board.log
+        [ $rc = 75 ] || return 0
+    done
+}
+
+# REBOOT over USB: wdr-board answers, exits 75 (ramp stopped, endpoints closed), the supervisor
+# starts it again and the host finds the board from a new start.
+check_reboot() {
+    local out pid0
+    board_stop
+    supervise &
+    wait_for 15 host_device || { echo "the supervised board never enumerated"; return 1; }
+    wait_for 5 host_node_ready
+    sleep 0.3
+    pid0=$(cat /tmp/board.pid)
+    out=$(timeout 60 wdrctl reboot --timeout 3000 2>&1); rc=$?
+    echo "$out"
+    grep 'supervisor:' /tmp/board.log | tail -1
+    [ $rc = 0 ] && grep -q "supervisor: $BIN exited with 75" /tmp/board.log && [ "$(cat /tmp/board.pid)" != "$pid0" ] ||
+        { echo "wdrctl reboot: exit $rc"; kill $(cat /tmp/board.pid); return 1; }
+    ctl info >/dev/null || { echo "no answer after the reboot"; return 1; }
+    echo "rebooted: pid $pid0 exited with 75, pid $(cat /tmp/board.pid) answers"
+    wdr-gadget unbind
+    kill $(cat /tmp/board.pid) && wait
+}
+
 gadget_no_udc() { # the script refuses to bind without a UDC, naming where it looked
     local out rc
     mkdir -p /tmp/no-udc
@@ -349,6 +384,7 @@ if [ -z "$VM_QUICK" ] && board_start; then
     run probe_superspeed probe_link super is_super_speed=1
     run probe_fullspeed probe_link full is_high_speed=0
     run model_counters_end counters_zero
+    run reboot check_reboot
     board_stop
 fi
 
