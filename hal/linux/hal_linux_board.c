@@ -98,7 +98,7 @@ static int get_uint(const ctx *c, const cJSON *obj, const char *section, const c
         *out = (uint32_t)dflt;
         return 0;
     }
-    if (!cJSON_IsNumber(v))
+    if (!v || !cJSON_IsNumber(v))
         return bad(c, f, v, v ? "must be a number" : "is required");
     double d = v->valuedouble;
     if (!isfinite(d) || d != floor(d) || d < lo || d > hi)
@@ -114,7 +114,7 @@ static int get_string(const ctx *c, const cJSON *obj, const char *section, const
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
     char f[96];
     join(f, sizeof f, section, key);
-    if (!cJSON_IsString(v))
+    if (!v || !cJSON_IsString(v))
         return bad(c, f, v, v ? "must be a string" : "is required");
     size_t n = strlen(v->valuestring);
     if (n == 0 || n >= cap)
@@ -130,7 +130,7 @@ static int parse_sensor(const ctx *c, const cJSON *root, lx_board *b)
     static const char *const known[] = {"id", "width", "height", "adc_bits", "dac_bits", "row_time_ns",
                                         "adc_convert_ns", NULL};
     const cJSON *s = section_of(c, root, "sensor", known);
-    uint32_t w, h, ab, db;
+    uint32_t w = 0, h = 0, ab = 0, db = 0;
     if (!s || get_uint(c, s, "sensor", "id", 0, 4294967295.0, 13569, &b->sensor_id) ||
         get_uint(c, s, "sensor", "width", 1, HAL_LINUX_MAX_WIDTH, -1, &w) ||
         get_uint(c, s, "sensor", "height", 1, 65535, -1, &h) || get_uint(c, s, "sensor", "adc_bits", 4, 16, -1, &ab) ||
