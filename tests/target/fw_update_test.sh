@@ -59,19 +59,19 @@ ctl fw status | grep -q "slot B: *empty" || ctl fw status | grep -q "slot B: *in
 # ---- An unconfirmed v2: 3 test boots, then back to v1 -------------------------------------------
 ctl fw upload "$dir/v2.img"
 for boot in 1 2 3; do
-    ctl reboot >/dev/null
+    ctl_reboot >/dev/null
     expect_running 2.0.0 "test boot $boot of the unconfirmed v2"
 done
-ctl reboot >/dev/null
+ctl_reboot >/dev/null
 expect_running 1.0.0 "a fourth reset without a confirmation (v2 reverted)"
 ctl fw status | grep -q "slot B: *rejected" || { ctl fw status; fail "slot B is not rejected after its 3 test boots"; }
 
 # ---- v2 again: reboot, confirm, reboot: still v2 --------------------------------------------------
 ctl fw upload "$dir/v2.img"
-ctl reboot
+ctl_reboot
 expect_running 2.0.0 "reboot after the upload (test boot)"
 ctl fw confirm
-ctl reboot
+ctl_reboot
 expect_running 2.0.0 "reboot after the confirmation"
 
 # ---- A planted fault: the running v2 jumps to an invalid address --------------------------------
