@@ -4,11 +4,14 @@
 WDR_PACKAGES="build-essential cmake pkg-config libcjson-dev libpng-dev libstb-dev libopenexr-dev \
 libcmocka-dev libusb-1.0-0-dev libgpiod-dev gnuplot-nox gcc-arm-none-eabi libnewlib-arm-none-eabi \
 clang-tidy cppcheck groff-base qemu-system-arm gdb-multiarch \
-qemu-system-x86 busybox-static cpio kmod clang-14 libclang-rt-14-dev \
+qemu-system-x86 busybox-static cpio kmod xz-utils systemd clang-14 libclang-rt-14-dev \
 libmbedtls-dev libssl-dev openssl valgrind"
 # firmware/boot/fetch_mbedtls.sh fetches the source of Debian's mbedtls for the Cortex-M7 into build-m7
-# (apt-get source through a private sources list, no install). tests/vm also fetches Debian's current kernel and its headers itself (apt-get download into the
-# build folder, no install), and builds its module with the kernel's compiler (gcc-12).
+# (apt-get source through a private sources list, no install).
+# tests/vm also fetches Debian's current kernels (bookworm's from the system's lists, trixie's
+# and libgpiod 2.x from bookworm-backports through a private sources list in the build folder)
+# with apt-get download, no install; it builds its module with gcc-12. systemd: for
+# systemd-analyze verify of wdr-board.service (tests/linux), xz-utils: trixie's modules.
 
 wdr_missing_packages() {
     for p in $WDR_PACKAGES; do

@@ -9,8 +9,8 @@
 #if defined(WDR_BOARD_MPS2_AN500)
 #include "mps2_board.h" /* the reset note: where a fault's cause survives the reset */
 #define NOTE_RESET(cause, pc, status) mps2_reset_note_write(cause, pc, status)
-#define NOTED_FAULT() (mps2_reset_note_at()->magic == MPS2_RESET_NOTE_MAGIC && \
-                       mps2_reset_note_at()->cause == WDR_RESET_FAULT)
+#define NOTED_FAULT()                                                                                                  \
+    (mps2_reset_note_at()->magic == MPS2_RESET_NOTE_MAGIC && mps2_reset_note_at()->cause == WDR_RESET_FAULT)
 #else /* the footprint build: no bootloader to tell */
 #define NOTE_RESET(cause, pc, status) ((void)(cause), (void)(pc), (void)(status))
 #define NOTED_FAULT() 0
@@ -36,8 +36,15 @@ static void wdr_default_handler(void)
  * function: its word 6 is the PC that faulted (or that was running when the NMI came). */
 #define FRAME_TO(fn) __asm volatile("tst lr, #4\n ite eq\n mrseq r0, msp\n mrsne r0, psp\n b " #fn)
 
-__attribute__((naked)) static void wdr_fault_handler(void) { FRAME_TO(wdr_fault_note); }
-__attribute__((naked)) static void wdr_nmi_handler(void) { FRAME_TO(wdr_nmi_note); }
+__attribute__((naked)) static void wdr_fault_handler(void)
+{
+    FRAME_TO(wdr_fault_note);
+}
+
+__attribute__((naked)) static void wdr_nmi_handler(void)
+{
+    FRAME_TO(wdr_nmi_note);
+}
 
 /* HardFault, MemManage, BusFault, UsageFault: note the cause, the faulting PC and the CFSR,
  * then wait; nothing feeds the watchdog any more, which resets the board. */
@@ -66,6 +73,9 @@ void wdr_reset_handler(void)
 {
     memcpy(&_data_start, &_data_load, (size_t)((uint8_t *)&_data_end - (uint8_t *)&_data_start));
     memset(&_bss_start, 0, (size_t)((uint8_t *)&_bss_end - (uint8_t *)&_bss_start));
+    /* The vector table is this image's wherever it was loaded (the bootloader sets VTOR too;
+     * a debugger loading the ELF directly does not). */
+    *(volatile uint32_t *)0xE000ED08u = (uint32_t)(uintptr_t)vectors;
     /* CP10/CP11 full access: the correction kernel uses the FPU. */
     *(volatile uint32_t *)0xE000ED88u |= 0xFu << 20;
     __asm volatile("dsb\n isb");
@@ -78,7 +88,8 @@ int main(void)
     if (hal_init())
         wdr_default_handler();
     wdr_fw_init(&fw); /* without tables or flash it still answers INFO and STATUS */
-    for (;;) /* wdr_fw_task feeds the watchdog; hal_wait_for_event too, where it polls */
+    /* wdr_fw_task feeds the watchdog; hal_wait_for_event too, where it polls */
+    for (;;)
         if (!wdr_fw_task(&fw))
             hal_wait_for_event();
 }

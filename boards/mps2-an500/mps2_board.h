@@ -14,16 +14,16 @@
  * vector (mps2-an500-boot.ld), then the application, which the bootloader copies there from its
  * image slot at every boot (RAM load; mps2-an500-app.ld links it to run there). */
 #define MPS2_BOOT_BASE 0x00000000u
-#define MPS2_BOOT_SIZE 0x00020000u    /* 128 KiB */
-#define MPS2_APP_BASE 0x00020000u     /* every application image's load_addr */
-#define MPS2_APP_LIMIT 0x00400000u    /* end of SSRAM1: an application lies in [BASE, LIMIT) */
+#define MPS2_BOOT_SIZE 0x00020000u /* 128 KiB */
+#define MPS2_APP_BASE 0x00020000u  /* every application image's load_addr */
+#define MPS2_APP_LIMIT 0x00400000u /* end of SSRAM1: an application lies in [BASE, LIMIT) */
 
 /* Data memory, SSRAM2/3 at 0x20000000 (4 MiB). Its last 256 bytes belong to neither image's
  * linker script: the boot record the bootloader leaves for the application (wdr_boot_record,
  * wdr_boot.h), and the reset note that whoever causes a reset (hal_reset, a fault handler, the
  * watchdog's early warning) leaves for the bootloader. A reset keeps RAM; power-on does not. */
 #define MPS2_RAM_BASE 0x20000000u
-#define MPS2_RAM_KEPT 0x203fff00u     /* the images' RAM ends here */
+#define MPS2_RAM_KEPT 0x203fff00u /* the images' RAM ends here */
 #define MPS2_BOOT_RECORD_ADDR 0x203fff00u
 #define MPS2_RESET_NOTE_ADDR 0x203fffe0u
 
@@ -64,7 +64,7 @@ static inline void mps2_reset_note_write(uint32_t cause, uint32_t pc, uint32_t s
 
 /* CMSDK APB watchdog, clocked at SYSCLK: the first expiry raises the NMI (the early warning,
  * which notes the cause), the second resets the board. */
-#define MPS2_WDOG_BASE 0x40008000u    /* LOAD +0, VALUE +4, CTRL +8, INTCLR +0xC, LOCK +0xC00 */
+#define MPS2_WDOG_BASE 0x40008000u /* LOAD +0, VALUE +4, CTRL +8, INTCLR +0xC, LOCK +0xC00 */
 #define MPS2_WDOG_CTRL_INTEN 0x1u
 #define MPS2_WDOG_CTRL_RESEN 0x2u
 #define MPS2_WDOG_UNLOCK 0x1acce551u

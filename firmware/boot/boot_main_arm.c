@@ -105,8 +105,8 @@ static void reset_cause(const wdr_boot_record *prev, wdr_boot_record *rec)
 {
     volatile mps2_reset_note *n = mps2_reset_note_at();
     bool prev_ok = wdr_boot_record_ok(prev);
-    if (n->magic == MPS2_RESET_NOTE_MAGIC && n->check == mps2_reset_note_check(n->cause, n->fault_pc, n->fault_status) &&
-        n->cause <= WDR_RESET_UNKNOWN) {
+    if (n->magic == MPS2_RESET_NOTE_MAGIC &&
+        n->check == mps2_reset_note_check(n->cause, n->fault_pc, n->fault_status) && n->cause <= WDR_RESET_UNKNOWN) {
         rec->reset_cause = (uint8_t)n->cause;
         rec->fault_pc = n->fault_pc;
         rec->fault_status = n->fault_status;

@@ -205,7 +205,7 @@ typedef struct wdr_boot_record {
     uint8_t testing;         /* 1: a test boot, confirm it or it reverts */
     uint8_t reset_cause;     /* enum wdr_reset_cause of the reset that led here */
     uint8_t attempts;        /* test boots so far, this one included */
-    uint32_t fault_pc;       /* WDR_RESET_FAULT: stacked PC of the fault */
+    uint32_t fault_pc;       /* WDR_RESET_FAULT: stacked PC of the fault (WATCHDOG: where it hung) */
     uint32_t fault_status;   /* WDR_RESET_FAULT: CFSR (or 0 where none) */
     uint32_t boots;          /* resets since power-on */
     uint32_t floor;          /* security counter floor at boot */

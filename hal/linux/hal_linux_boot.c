@@ -1,7 +1,7 @@
 /* Real board on embedded Linux: no bootloader and no image flash. The firmware is a program the
  * system's package manager updates, so FW_* answer UNSUPPORTED; a reset ends the process and
- * the service manager (systemd's Restart=always) starts it again, which is the reboot. */
-#include "hal.h"
+ * the service manager (wdr-board.service, RestartForceExitStatus=75) starts it again: the reboot. */
+#include "hal_linux_internal.h"
 #include "wdr_boot.h"
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,12 +37,14 @@ int hal_boot_record_get(struct wdr_boot_record *out)
     return WDR_E_UNSUPPORTED;
 }
 
-/* The answer to REBOOT has left through FunctionFS by now; exit so the service restarts us. */
+/* The answer to REBOOT has left through FunctionFS by now: stop as on SIGTERM (the gadget
+ * unbinds), then exit with the status wdr-board.service restarts (RestartForceExitStatus=75). */
 void hal_reset(uint8_t cause)
 {
-    fprintf(stderr, "wdr-board: reset (%s): exiting; the service manager starts the firmware again\n",
+    fprintf(stderr, "wdr-board: reset (%s): exiting with 75; the service manager starts the firmware again\n",
             wdr_reset_cause_name(cause));
-    exit(EXIT_SUCCESS);
+    lx_shutdown();
+    exit(LX_EXIT_RESET);
 }
 
 void hal_watchdog_feed(void) {} /* the kernel's watchdog daemon watches the system, not us */

@@ -4,10 +4,12 @@
 # flipped byte, another key, a downgrade, another board, a truncated image), each with its
 # reason, v1 still answering; an unconfirmed v2 reverting to v1 after its 3 test boots; v2
 # uploaded, rebooted into, confirmed, kept; a fault planted with GDB (a jump to an invalid
-# address) coming back through the watchdog, named by fw status.
-# usage: fw_update_test.sh QEMU BOOT_ELF FACTORY_HEX APP_BIN WDRCTL TARGET_DATA DEV_KEY WORKDIR
+# address) coming back through the watchdog, named by fw status; then a hang (the firmware sent
+# into a loop that feeds nothing) caught by the watchdog's early warning.
+# usage: fw_update_test.sh QEMU BOOT_ELF FACTORY_HEX APP_ELF WDRCTL TARGET_DATA DEV_KEY WORKDIR
 set -eu
-qemu=$1 boot=$2 factory=$3 app=$4 wdrctl=$5 data=$6 key=$7 dir=$8
+qemu=$1 boot=$2 factory=$3 app_elf=$4 wdrctl=$5 data=$6 key=$7 dir=$8
+app=${app_elf%.elf}.bin
 . "$(dirname "$0")/qemu_board.sh"
 rm -rf "$dir" && mkdir -p "$dir"
 fail() { echo "FAIL: $*" >&2; exit 1; }
@@ -32,7 +34,7 @@ trap board_cut EXIT
 board_blank
 board_flash "$factory"
 
-running() { ctl info | sed -n 's/^firmware: *\([0-9.]*\)+.*/\1/p'; }
+running() { ctl info | sed -n 's/^firmware: *\([0-9][0-9.]*[0-9]\).*/\1/p'; }
 expect_running() { # VERSION WHEN
     v=$(running)
     [ "$v" = "$1" ] || fail "$2: the board runs '$v', not $1"
@@ -57,30 +59,40 @@ ctl fw status | grep -q "slot B: *empty" || ctl fw status | grep -q "slot B: *in
 # ---- An unconfirmed v2: 3 test boots, then back to v1 -------------------------------------------
 ctl fw upload "$dir/v2.img"
 for boot in 1 2 3; do
-    ctl reboot >/dev/null
+    ctl_reboot >/dev/null
     expect_running 2.0.0 "test boot $boot of the unconfirmed v2"
 done
-ctl reboot >/dev/null
+ctl_reboot >/dev/null
 expect_running 1.0.0 "a fourth reset without a confirmation (v2 reverted)"
 ctl fw status | grep -q "slot B: *rejected" || { ctl fw status; fail "slot B is not rejected after its 3 test boots"; }
 
 # ---- v2 again: reboot, confirm, reboot: still v2 --------------------------------------------------
 ctl fw upload "$dir/v2.img"
-ctl reboot
+ctl_reboot
 expect_running 2.0.0 "reboot after the upload (test boot)"
 ctl fw confirm
-ctl reboot
+ctl_reboot
 expect_running 2.0.0 "reboot after the confirmation"
 
 # ---- A planted fault: the running v2 jumps to an invalid address --------------------------------
+# Wait until fw status names the last reset's cause (the watchdog resets 4 s after the last feed).
+wait_reset() { # CAUSE WHAT
+    i=0
+    until ctl_quick fw status >"$dir/status" 2>/dev/null && grep -q "last reset: *$1" "$dir/status"; do
+        i=$((i + 1))
+        [ $i -lt 8 ] || { cat "$dir/status"; fail "no reset through the watchdog after $2"; }
+        sleep 1
+    done
+}
 board_gdb -ex 'set $pc = 0x30000001' || { cat "$dir/gdb.log"; fail "gdb could not plant the fault"; }
-i=0
-until ctl fw status >"$dir/status" 2>/dev/null && grep -q "last reset: *fault" "$dir/status"; do
-    i=$((i + 1))
-    [ $i -lt 30 ] || { cat "$dir/status"; fail "no reset through the watchdog after the fault"; }
-    sleep 1
-done
+wait_reset fault "the fault"
 grep -q "0x30000000" "$dir/status" || { cat "$dir/status"; fail "fw status does not name the faulting PC 0x30000000"; }
 expect_running 2.0.0 "after the fault and the watchdog's reset"
 echo "fw status after the planted fault:"
 cat "$dir/status"
+
+# ---- A planted hang: the firmware parked in a loop that never feeds the watchdog ---------------
+board_gdb -ex "file $app_elf" -ex 'set $pc = wdr_default_handler' || { cat "$dir/gdb.log"; fail "gdb could not plant the hang"; }
+wait_reset watchdog "the hang"
+expect_running 2.0.0 "after the hang and the watchdog's reset"
+grep "last reset" "$dir/status"

@@ -26,11 +26,10 @@ now_ms() { echo $(($(date +%s%N) / 1000000)); }
 snapshot() { board_cut; cp "$board_psram" "$dir/$1.psram"; }
 restore() { cp "$dir/$1.psram" "$board_psram"; }
 version() { # what the board runs, or "none" when nothing answers
-    "$board_wdrctl" info --device "unix:$board_dir/uart.sock" --timeout 3000 --retries 1 --wait 8000 2>/dev/null |
-        sed -n 's/^firmware: *\([0-9.]*\)+.*/\1/p' | grep . || echo none
+    ctl_quick info 2>/dev/null | sed -n 's/^firmware: *\([0-9][0-9.]*[0-9]\).*/\1/p' | grep . || echo none
 }
 slot_b() { # state, and its test boots when it has any
-    ctl fw status 2>/dev/null | sed -n 's/^slot B: *\([a-z]*\).*attempts \([0-9]*\).*/\1 \2/p; s/^slot B: *\([a-z]*\)$/\1/p' |
+    ctl_quick fw status 2>/dev/null | sed -n 's/^slot B: *\([a-z]*\).*attempts \([0-9]*\).*/\1 \2/p; s/^slot B: *\([a-z]*\)$/\1/p' |
         awk '{ print ($2 > 0) ? $1 ", " $2 " test boot(s)" : $1 }'
 }
 
@@ -40,7 +39,7 @@ board_flash "$factory" >/dev/null
 [ "$(version)" = 1.0.0 ] || { echo "FAIL: the factory image does not run v1" >&2; exit 1; }
 snapshot factory
 board_power_on
-ctl info >/dev/null
+ctl_up
 t0=$(now_ms)
 ctl fw upload "$dir/v2.img" >/dev/null
 upload_ms=$(($(now_ms) - t0))
@@ -49,10 +48,10 @@ board_power_on
 [ "$(version)" = 2.0.0 ] || { echo "FAIL: the pending v2 does not run at power-on" >&2; exit 1; }
 snapshot testing
 board_power_on
-ctl info >/dev/null
+ctl_up
 t0=$(now_ms)
 ctl fw confirm >/dev/null
-ctl reboot >/dev/null
+ctl_reboot >/dev/null
 confirm_ms=$(($(now_ms) - t0))
 board_cut
 echo "uninterrupted: upload ${upload_ms} ms, confirm + reboot ${confirm_ms} ms"
@@ -66,14 +65,15 @@ cut_at() { # PHASE SNAPSHOT DELAY_MS COMMAND...
     restore "$snap"
     board_power_on
     if [ $# -gt 0 ]; then
-        ctl info >/dev/null
+        ctl_up
         ("$@" >/dev/null 2>&1 &)
     fi
     sleep "$(awk "BEGIN { printf \"%.3f\", $delay / 1000 }")"
     board_cut
     board_power_on
     v=$(version)
-    b=$(slot_b)
+    b=
+    [ "$v" = none ] || b=$(slot_b)
     board_cut
     n=$((n + 1))
     case $v in
@@ -85,7 +85,7 @@ cut_at() { # PHASE SNAPSHOT DELAY_MS COMMAND...
 }
 for i in $(seq 1 25); do cut_at upload factory $((upload_ms * i / 26)) ctl fw upload "$dir/v2.img"; done
 for i in $(seq 1 10); do cut_at boot pending $((30 * i)); done
-confirm_seq() { ctl fw confirm && ctl reboot; }
+confirm_seq() { ctl fw confirm && ctl_reboot; }
 for i in $(seq 1 15); do cut_at confirm testing $((confirm_ms * i / 16)) confirm_seq; done
 echo "power cuts: $n, after which v1 ran $v1 times, v2 $v2 times, nothing $bad times"
 [ "$bad" -eq 0 ]

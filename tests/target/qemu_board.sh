@@ -10,6 +10,11 @@
 #   board_cut                                    SIGKILL: a power cut
 #   board_gdb GDB ARGS...                        gdb-multiarch commands on the running board
 #   ctl ARGS                                     wdrctl on the UART
+#   ctl_quick ARGS                               the same, giving up after a few seconds (a board
+#                                                that may be down: hung, resetting, bricked)
+#   ctl_reboot                                   wdrctl reboot, asking again every 2 s while the
+#                                                board restarts (a request sent into the reset is lost)
+#   ctl_up                                       wait until a board just powered on answers INFO
 # QEMU's SSRAM1, where the bootloader lives at the reset vector, is not a file: a power-on
 # reloads it from BOOT_ELF (-kernel), standing for a real M7's internal flash, which keeps it.
 board_init() {
@@ -66,4 +71,16 @@ board_flash() {
 
 ctl() {
     "$board_wdrctl" "$@" --device "unix:$board_dir/uart.sock" --timeout 20000 --wait 10000
+}
+
+ctl_quick() {
+    "$board_wdrctl" "$@" --device "unix:$board_dir/uart.sock" --timeout 3000 --retries 1 --wait 5000
+}
+
+ctl_reboot() {
+    "$board_wdrctl" reboot --device "unix:$board_dir/uart.sock" --timeout 2000 --retries 2 --wait 30000
+}
+
+ctl_up() {
+    "$board_wdrctl" info --device "unix:$board_dir/uart.sock" --timeout 2000 --retries 5 --wait 10000 >/dev/null
 }
