@@ -146,7 +146,7 @@ static double basis_learn_time(const calib *c)
     char err[160];
     wdr_basis b;
     double t0 = cpu_s();
-    int rc = wdr_cal_basis_learn(&c->res, n, &b, err, sizeof err);
+    int rc = wdr_cal_basis_learn(&c->res, n, 0, &b, err, sizeof err);
     learnt_s[n] = cpu_s() - t0;
     if (!rc)
         wdr_cal_basis_free(&b);

@@ -325,7 +325,7 @@ int cmd_calibrate(int argc, char **argv)
         return wdrctl_fail(EX_USAGE, "calibrate: --form moebius is exact only for --model simple3");
     if (o.form >= 0)
         r.cfg.form = o.form;
-    if (o.form == WDR_FORM_COMPACT)
+    if (wdr_cal_form_compact((uint16_t)o.form))
         r.cfg.n_coeffs = WDR_CAL_COMPACT_COEFFS;
     if (o.device) {
         device_src d;
