@@ -368,6 +368,7 @@ int wdr_cal_parse(const void *buf, size_t len, wdr_cal_view *out)
     out->row_stride = wdr_cal_form_row_stride(out->h.form, out->h.width, out->h.n_coeffs);
     out->code_q = NULL;
     out->code_shift = 0;
+    out->code_sat = 0;
     if (wdr_crc32(0, p + WDR_CAL_HEADER_SIZE, out->h.payload_len) != out->h.payload_crc)
         return WDR_E_CORRUPT;
     if (out->shared && wdr_cal_shared_ok(&out->h, out->shared))

@@ -229,8 +229,21 @@ static void compact_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *
 /* SHIFTED: the same loop, each pixel reading its own shifted code (its byte after the words): the
  * raw code needs no clamp of its own (y + b is clamped once), and the points are addressed from
  * WDR_CAL_SHIFT_ZERO codes below code 0, so the shift costs one byte load and one add. */
+/* The shifted code's clamp: sat (a literal) 13 is one USAT to 2^13 - 1 on the controller, the points
+ * beyond raw_max + 64 being copies of the last; 0 a compare with top. */
+static inline uint32_t shifted_clamp(uint32_t u, uint32_t top, const int sat)
+{
+#if defined(__ARM_FEATURE_SAT)
+    if (sat == 13)
+        return (uint32_t)__usat((int32_t)u, 13);
+#endif
+    if (sat == 13)
+        return u < (1u << 13) - 1u ? u : (1u << 13) - 1u;
+    return u < top ? u : top;
+}
+
 static inline void shifted_codes_bits(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out,
-                                      const int bits)
+                                      const int bits, const int sat)
 {
     const uint32_t *c = wdr_cal_row_compact(cal, row);
     const uint32_t *points = cal->code_q - WDR_CAL_COMPACT_POINT_WORDS * WDR_CAL_SHIFT_ZERO;
@@ -241,20 +254,21 @@ static inline void shifted_codes_bits(const wdr_cal_view *cal, int row, const ui
     const uint32_t top = (uint32_t)cal->h.raw_max + WDR_CAL_SHIFT_ZERO, shift = cal->code_shift;
     const int32_t m = cal->h.out_max;
     for (const uint16_t *end = raw + cal->h.width; raw < end; c += 2) {
-        uint32_t u = (uint32_t)*raw++ + *b++;
-        u = u < top ? u : top;
+        uint32_t u = shifted_clamp((uint32_t)*raw++ + *b++, top, sat);
         *out++ = compact_output(wdr_compact_value(c, points + WDR_CAL_COMPACT_POINT_WORDS * u, shift), m, bits);
     }
 }
 
 static void shifted_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
 {
-    if (cal->h.out_max == 4095u)
-        shifted_codes_bits(cal, row, raw, out, 12);
-    else if (cal->h.out_max == 65535u)
-        shifted_codes_bits(cal, row, raw, out, 16);
+    if (cal->code_sat == WDR_CAL_SHIFT_SAT_BITS && cal->h.out_max == 4095u)
+        shifted_codes_bits(cal, row, raw, out, 12, 13);
+    else if (cal->code_sat == WDR_CAL_SHIFT_SAT_BITS)
+        shifted_codes_bits(cal, row, raw, out, 0, 13);
+    else if (cal->h.out_max == 4095u)
+        shifted_codes_bits(cal, row, raw, out, 12, 0);
     else
-        shifted_codes_bits(cal, row, raw, out, 0);
+        shifted_codes_bits(cal, row, raw, out, 0, 0);
 }
 
 /* Without the per-code points (an ADC wider than the buffer, host tools): each pixel's point is
@@ -280,15 +294,21 @@ int wdr_correct_per_code_compact(wdr_cal_view *cal, uint32_t *points, size_t cap
         cal->h.n_coeffs != WDR_CAL_COMPACT_COEFFS || cal->h.raw_max == 0)
         return WDR_E_INVAL;
     const int32_t pad = cal->h.form == WDR_FORM_SHIFTED ? (int32_t)WDR_CAL_SHIFT_PAD : 0;
-    const uint32_t codes = (uint32_t)cal->h.raw_max + 1u + (uint32_t)pad;
+    const uint32_t codes = (uint32_t)cal->h.raw_max + 1u + (uint32_t)pad, sat_codes = 1u << WDR_CAL_SHIFT_SAT_BITS;
     if ((size_t)codes * WDR_CAL_COMPACT_POINT_WORDS > capacity)
         return WDR_E_TOO_LARGE;
+    /* SHIFTED with room: points up to 2^13 codes, those past the last code copies of it */
+    const int sat = pad && codes <= sat_codes && (size_t)sat_codes * WDR_CAL_COMPACT_POINT_WORDS <= capacity;
     const uint32_t shift = wdr_compact_shift(cal);
     float g[WDR_CAL_COMPACT_COEFFS];
     wdr_compact_gains(cal, shift, g);
     for (uint32_t j = 0; j < codes; j++)
         wdr_compact_point(cal, g, shift, (int32_t)j - pad, points + WDR_CAL_COMPACT_POINT_WORDS * j);
+    for (uint32_t j = codes; sat && j < sat_codes; j++)
+        for (uint32_t w = 0; w < WDR_CAL_COMPACT_POINT_WORDS; w++)
+            points[WDR_CAL_COMPACT_POINT_WORDS * j + w] = points[WDR_CAL_COMPACT_POINT_WORDS * (codes - 1u) + w];
     cal->code_q = points + WDR_CAL_COMPACT_POINT_WORDS * (uint32_t)pad; /* code 0 */
+    cal->code_sat = sat ? WDR_CAL_SHIFT_SAT_BITS : 0u;
     cal->code_shift = shift;
     return WDR_OK;
 }

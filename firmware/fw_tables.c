@@ -14,8 +14,9 @@
  * program has one firmware (wdr_fw.h), so one table. A wider ADC than it holds interpolates. */
 static union {
     float basis[WDR_FW_CAL_CODES * WDR_FW_MAX_CAL_COEFFS];
-    /* COMPACT: base and two int16 pairs per code, 16 bytes; SHIFTED also the codes below 0 */
-    uint32_t compact[(WDR_FW_CAL_CODES + WDR_CAL_SHIFT_PAD) * 4u];
+    /* COMPACT: base and two int16 pairs per code, 16 bytes; SHIFTED also the codes below 0 and,
+     * for one USAT a pixel, on to twice the codes (no more RAM: basis is 8 floats a code) */
+    uint32_t compact[WDR_FW_CAL_CODES * 8u];
 } cal_code_points;
 
 /* A stored table: read through the store (fw_store.c), which alone knows the slots' layout. */

@@ -29,6 +29,7 @@
 #define WDR_CAL_SHIFT_ZERO 64u
 #define WDR_CAL_SHIFT_FLAGGED 0x80u
 #define WDR_CAL_SHIFT_PAD 64u
+#define WDR_CAL_SHIFT_SAT_BITS 13u /* a 12-bit ADC's shifted codes, padded to 2^13 points */
 
 /* Per-pixel formula. Never renumber: tables in flash use these ids. */
 enum wdr_cal_form {
@@ -115,6 +116,9 @@ typedef struct wdr_cal_view {
      * (computed per pixel) */
     const uint32_t *code_q;
     uint32_t code_shift;
+    /* SHIFTED: 13 when the per-code points run on to 2^13 codes (copies of the last), so that one
+     * USAT clamps a pixel's shifted code; else 0 (a compare) */
+    uint32_t code_sat;
 } wdr_cal_view;
 
 /* Bytes of one row block and of a whole table (header included); wdr_cal_row_stride is the

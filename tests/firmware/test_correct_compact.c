@@ -136,21 +136,28 @@ static void shifted_kernel_follows_the_formula(void **state)
     (void)state;
     table t;
     build_form(&t, 1.0f, 4095, WDR_FORM_SHIFTED);
-    static uint32_t points[4 * (RAW_MAX + 1 + WDR_CAL_SHIFT_PAD)];
-    wdr_cal_view pc = t.v;
+    static uint32_t points[4 * 8192], points_cmp[4 * (RAW_MAX + 1 + WDR_CAL_SHIFT_PAD)];
+    wdr_cal_view pc = t.v, pc_cmp = t.v; /* points to 2^13 codes (one USAT), and just enough (a compare) */
     assert_int_equal(wdr_correct_per_code_compact(&pc, points, 4 * (RAW_MAX + 1)), WDR_E_TOO_LARGE);
     assert_int_equal(wdr_correct_per_code_compact(&pc, points, sizeof points / sizeof points[0]), WDR_OK);
+    assert_int_equal(pc.code_sat, 13);
+    assert_int_equal(wdr_correct_per_code_compact(&pc_cmp, points_cmp, sizeof points_cmp / sizeof points_cmp[0]),
+                     WDR_OK);
+    assert_int_equal(pc_cmp.code_sat, 0);
     double worst = 0, worst_f32 = 0;
     for (int r = 0; r < H; r++) {
         const uint8_t *b = wdr_cal_row_flags(&t.v, r);
         for (uint32_t y0 = 0; y0 <= RAW_MAX + 7; y0 += W) {
-            uint16_t raw[W], slow[W], fast[W];
+            uint16_t raw[W], slow[W], fast[W], cmp[W];
             float rawf[W], outf[W];
-            for (int c = 0; c < W; c++)
-                raw[c] = (uint16_t)(y0 + (uint32_t)c), rawf[c] = (float)raw[c] + 0.25f;
+            for (int c = 0; c < W; c++) /* the last rows: raw codes far past raw_max (8191 and beyond) */
+                raw[c] = (uint16_t)(y0 + (uint32_t)c + (y0 > RAW_MAX - W ? 4000u * (uint32_t)r : 0u)),
+                rawf[c] = (float)raw[c] + 0.25f;
             assert_int_equal(wdr_correct_row(&t.v, r, raw, slow), WDR_OK);
             assert_int_equal(wdr_correct_row(&pc, r, raw, fast), WDR_OK);
+            assert_int_equal(wdr_correct_row(&pc_cmp, r, raw, cmp), WDR_OK);
             assert_memory_equal(slow, fast, sizeof slow);
+            assert_memory_equal(slow, cmp, sizeof slow);
             assert_int_equal(wdr_correct_row_f32(&t.v, r, rawf, outf), WDR_OK);
             for (int c = 0; c < W; c++) {
                 if (b[c] & WDR_CAL_SHIFT_FLAGGED) {

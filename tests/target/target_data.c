@@ -198,7 +198,7 @@ static int make_cal(const char *name, const char *out, int w, int h)
 static int active_view(const char *path, uint8_t **buf, wdr_cal_view *v, int w, int h)
 {
     static float basis_points[4096 * 8];
-    static uint32_t compact_points[(4096 + WDR_CAL_SHIFT_PAD) * 4];
+    static uint32_t compact_points[8192 * 4]; /* SHIFTED: one USAT a pixel (correct.c) */
     size_t len;
     if (!strcmp(path, "none"))
         return wdr_cal_identity(v, MPS2_SENSOR_ID, (uint16_t)w, (uint16_t)h, 1.0f, RAW_MAX, RAW_MAX);

@@ -44,7 +44,7 @@ __attribute__((section(".isr_vector"), used)) static void (*const vectors[16])(v
 };
 
 static float basis_points[4096 * 8];
-static uint32_t compact_points[(4096 + WDR_CAL_SHIFT_PAD) * 4];
+static uint32_t compact_points[8192 * 4]; /* SHIFTED: one USAT a pixel (correct.c) */
 static uint16_t out_row[1024];
 static uint32_t frame[(WDR_PROTO_MAX_FRAME + 3u) / 4u];
 
