@@ -286,11 +286,3 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     *out_len = len;
     return WDR_OK;
 }
-
-void wdr_cal_default_form(wdr_cal_config *cfg, int operator_id)
-{
-    if (cfg->model != WDR_MODEL_SPLINE || operator_id == WDR_OP_DRAGO || operator_id == WDR_OP_TUMBLIN_RUSHMEIER)
-        return;
-    cfg->form = WDR_FORM_COMPACT;
-    cfg->n_coeffs = WDR_CAL_COMPACT_COEFFS;
-}

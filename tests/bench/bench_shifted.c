@@ -3,7 +3,7 @@
  * seeds and two sizes, through the kernel's arithmetic (bench_target_study.h), and the worst case
  * seen per form. One chip is never the answer: a seed may be lucky.
  *
- *   bench_shifted [--quick] [--seeds 11,3,7] [--sizes 64x48,96x72] [--basis]
+ *   bench_shifted [--quick] [--seeds 11,3,7] [--sizes 64x48,96x72] [--ops drago,...] [--basis]
  * --quick: Tumblin-Rushmeier alone, one seed, 64x48; --basis: basis-8 beside them. */
 #include "bench_target_study.h"
 #include <string.h>
@@ -30,9 +30,12 @@ int main(int argc, char **argv)
 {
     int seeds[MAX_LIST] = {11, 3, 7}, sizes[2 * MAX_LIST] = {64, 48, 96, 72}, n_seeds = 3, n_sizes = 2;
     int quick = 0, basis = 0;
+    const char *ops = NULL; /* a comma-separated subset of study_ops; all by default */
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--quick"))
             quick = 1, n_seeds = 1, n_sizes = 1;
+        else if (i + 1 < argc && !strcmp(argv[i], "--ops"))
+            ops = argv[++i];
         else if (!strcmp(argv[i], "--basis"))
             basis = 1;
         else if (i + 1 < argc && !strcmp(argv[i], "--seeds"))
@@ -49,7 +52,7 @@ int main(int argc, char **argv)
     double worst[STUDY_OPS][3] = {{0}};
     printf("bench_shifted: worst analog contrast error %% (31 currents; 19-level spline fit)\n");
     for (int o = quick ? 3 : 0; o < (quick ? 4 : STUDY_OPS); o++)
-        for (int z = 0; z < n_sizes; z++)
+        for (int z = 0; z < n_sizes && (!ops || strstr(ops, study_ops[o])); z++)
             for (int s = 0; s < n_seeds; s++) {
                 study_chip c;
                 wdr_cal_result sp;
@@ -72,6 +75,8 @@ int main(int argc, char **argv)
         printf(" %9s", names[f]);
     printf("\n");
     for (int o = quick ? 3 : 0; o < (quick ? 4 : STUDY_OPS); o++) {
+        if (ops && !strstr(ops, study_ops[o]))
+            continue;
         printf("%-18s", study_ops[o]);
         for (int f = 0; f < nf; f++)
             printf(" %8.3f%%", worst[o][f]);
