@@ -55,7 +55,8 @@ typedef struct study_result {
     /* costs: measured here */
     double fit_s_per_mp;  /* fit + table build per megapixel (+ the basis's fixed learning) */
     double correct_ns_px; /* float32 correction kernel, per pixel */
-    double m7_instr_px;   /* NAN: no Cortex-M7 bench in this tree */
+    double m7_instr_px;   /* Cortex-M7 instructions per pixel, correction alone (study_m7.c, measured) */
+    double m7_row_px;     /* the same for the whole row path (correction, framing, CRC) */
     /* what the point used */
     double adc_lo_v, adc_hi_v, dac_lo_v, dac_hi_v;
     int levels_used;
@@ -102,6 +103,15 @@ struct wdr_board;
 void study_frame_time(const struct wdr_board *b, int adc_bits, double t_ramp_s, study_result *r);
 /* Calibration time on a board: (levels + dark) x frames x frame time. */
 double study_cal_time(const study_result *r, int levels, int frames);
+
+/* ---- study_m7.c: what bench_target measured on the Cortex-M7 ---- */
+typedef struct study_m7_count {
+    int form, n_coeffs;
+    double corr_px, row_px; /* instructions per pixel: correction alone, row path */
+} study_m7_count;
+const study_m7_count *study_m7_counts(int *n);
+/* The counts of a form with n_coeffs coefficients (NAN both when bench_target does not run it). */
+void study_m7_for(int form, int n_coeffs, double *corr_px, double *row_px);
 
 /* ---- study_run.c: every point, in parallel ---- */
 

@@ -19,7 +19,11 @@ static const char *model_name(int m)
 
 static const char *form_name(int f)
 {
-    return f == WDR_FORM_MOEBIUS ? "moebius" : f == WDR_FORM_BASIS ? "basis" : "poly";
+    return f == WDR_FORM_MOEBIUS   ? "moebius"
+           : f == WDR_FORM_BASIS   ? "basis"
+           : f == WDR_FORM_COMPACT ? "compact"
+           : f == WDR_FORM_SHIFTED ? "shifted"
+                                   : "poly";
 }
 
 static int point_coeffs(const study_point *p)
@@ -325,6 +329,10 @@ static cJSON *point_json(const study *s, int i)
         cJSON_AddNumberToObject(c, "m7_instructions_per_pixel", r->m7_instr_px);
     else
         cJSON_AddNullToObject(c, "m7_instructions_per_pixel");
+    if (isfinite(r->m7_row_px))
+        cJSON_AddNumberToObject(c, "m7_row_instructions_per_pixel", r->m7_row_px);
+    else
+        cJSON_AddNullToObject(c, "m7_row_instructions_per_pixel");
     cJSON *u = cJSON_AddObjectToObject(j, "used");
     cJSON_AddNumberToObject(u, "adc_lo_V", r->adc_lo_v);
     cJSON_AddNumberToObject(u, "adc_hi_V", r->adc_hi_v);
@@ -357,7 +365,12 @@ static cJSON *costs_json(void)
     for (int q = 0; q < STUDY_COST_COUNT; q++)
         cJSON_AddStringToObject(c, study_cost_name(q),
                                 study_cost_measured(q) ? "measured here" : "modelled from the board");
-    cJSON_AddStringToObject(c, "m7_instructions_per_pixel", "not available: no Cortex-M7 bench in this tree");
+    cJSON_AddStringToObject(c, "m7_instructions_per_pixel",
+                            "measured, not modelled: bench_target's count of the correction on the Cortex-M7 (QEMU "
+                            "mps2-an500, -icount shift=0), per form (host/study/study_m7.c); null where it does not "
+                            "run that coefficient count");
+    cJSON_AddStringToObject(c, "m7_row_instructions_per_pixel",
+                            "measured, not modelled: the same for the row path (correction, ROW framing, CRC)");
     return c;
 }
 

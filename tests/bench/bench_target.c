@@ -8,6 +8,9 @@
  * instruction per cycle and no stall, so it is an upper bound for the pipeline, not a promise.
  *
  *   bench_target [--quick] [--qemu QEMU --image wdr_bench_mps2.elf --data target_data --dir DIR]
+ *                [--counts FILE]
+ * --counts writes the measured instruction counts, one "form n_coeffs corr row" line per form, for
+ * test_study_m7 to hold the study's copy (host/study/study_m7.c) to them.
  * Without --image only the accuracy half runs; --quick judges Drago alone, not all seven. */
 #include "bench_target_study.h"
 #include <signal.h>
@@ -167,9 +170,19 @@ static void print_external(void)
            " wider build; the sizes are what its table takes.)\n");
 }
 
+static int write_counts(const char *path)
+{
+    FILE *f = fopen(path, "w");
+    if (!f)
+        return fprintf(stderr, "bench_target: %s: cannot write\n", path), 1;
+    for (size_t i = 0; i < N_FORMS; i++)
+        fprintf(f, "%d %d %.2f %.2f\n", forms[i].form, forms[i].n, forms[i].corr, forms[i].row);
+    return fclose(f) ? 1 : 0;
+}
+
 int main(int argc, char **argv)
 {
-    const char *qemu = NULL, *image = NULL, *data = NULL, *dir = "/tmp";
+    const char *qemu = NULL, *image = NULL, *data = NULL, *dir = "/tmp", *counts = NULL;
     int quick = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--quick"))
@@ -182,6 +195,8 @@ int main(int argc, char **argv)
             data = argv[++i];
         else if (i + 1 < argc && !strcmp(argv[i], "--dir"))
             dir = argv[++i];
+        else if (i + 1 < argc && !strcmp(argv[i], "--counts"))
+            counts = argv[++i];
         else
             return fprintf(stderr, "bench_target: unknown argument '%s'\n", argv[i]), 64;
     }
@@ -189,7 +204,7 @@ int main(int argc, char **argv)
     if (judge(quick ? 1 : STUDY_OPS))
         return 1;
     if (qemu && image && data) {
-        if (make_inputs(data, dir) || count_instructions(qemu, image, dir))
+        if (make_inputs(data, dir) || count_instructions(qemu, image, dir) || (counts && write_counts(counts)))
             return 1;
     } else
         printf("bench_target: no --qemu/--image/--data: instruction counts skipped (.ci/test runs them)\n");
