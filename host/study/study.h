@@ -73,6 +73,8 @@ typedef struct study {
     int n;
     study_point *pts;  /* malloc'd, n */
     study_result *res; /* malloc'd, n */
+    int *index;        /* a shard: each point's index in the full study (malloc'd, n); else NULL */
+    int full_n;        /* a shard: the full study's point count */
 } study;
 
 /* ---- study_space.c: knobs as lists and ranges ---- */
@@ -118,6 +120,19 @@ void study_m7_for(int form, int n_coeffs, double *corr_px, double *row_px);
 /* Evaluate every point on s->jobs worker processes, printing progress when show_progress.
  * @return a sysexits code */
 int study_run(study *s, int show_progress, double *wall_s);
+
+/* ---- study_shard.c: studies across machines ---- */
+
+/* "K/N" of --shard. @return a sysexits code, the failure printed */
+int study_shard_parse(const char *text, int *k, int *n);
+/* Keep shard K of N of the expanded study: points K-1, K-1+N, ... (s->index must hold s->n). */
+void study_shard_select(study *s, int k, int n);
+/* The evaluated shard into path. @return a sysexits code */
+int study_shard_write(const study *s, int k, int n, const char *path, double wall_s);
+/* All N shards back into s (pts, res malloc'd; board copied into board), in the full study's
+ * order; a missing shard is refused by its number, as are a shard given twice, another study's
+ * shard and another build's. wall_s: the shards' walls summed. @return a sysexits code */
+int study_shard_merge(char **paths, int n_paths, study *s, char *board, int board_len, double *wall_s);
 
 /* ---- study_pareto.c: fronts and the target ---- */
 
