@@ -52,6 +52,8 @@ typedef struct study_result {
     double cal_s;                  /* (levels + dark) x frames x frame time */
     double table_bpp, table_bytes; /* per pixel; total at the board's size */
     double bandwidth_Bps;          /* table bytes read per second at the study's fps */
+    double bus_Bps;                /* the board's table bus (controller.table_bus_MBps), 0: not given */
+    int bus_feeds;                 /* bandwidth within the bus (or no bus given): else --target skips it */
     /* costs: measured here */
     double fit_s_per_mp;  /* fit + table build per megapixel (+ the basis's fixed learning) */
     double correct_ns_px; /* float32 correction kernel, per pixel */
@@ -144,6 +146,7 @@ enum study_cost {
     STUDY_COST_BANDWIDTH,
     STUDY_COST_CORRECT,
     STUDY_COST_FIT,
+    STUDY_COST_M7, /* correction instructions per pixel on the Cortex-M7 (NAN where not measured) */
     STUDY_COST_COUNT
 };
 const char *study_acc_name(int a);
@@ -155,7 +158,8 @@ double study_acc_value(const study_result *r, int a);
 double study_cost_value(const study_result *r, int c);
 /* Indices of the Pareto front of accuracy a against cost c, cheapest first. @return count */
 int study_front(const study *s, int a, int c, int *idx);
-/* Index of the cheapest ok point with accuracy figure a <= target_pct by cost c; -1 if none. */
+/* Index of the cheapest ok point with accuracy figure a <= target_pct by cost c, among those the
+ * board's bus can feed and whose cost c is known; -1 if none. */
 int study_cheapest(const study *s, int a, int c, double target_pct);
 
 /* ---- study_report.c: table, fronts, JSON, plots ---- */
@@ -164,15 +168,19 @@ void study_print_table(const study *s);
 void study_print_fronts(const study *s);
 /* The cheapest points meeting target_pct, by the total error and by FPN alone (what calibration
  * reaches once the image's temporal noise is averaged away), or why none does (the limiting knob). */
-void study_print_target(const study *s, double target_pct);
+void study_print_target(const study *s, double target, int acc);
+/* A target: a value and its accuracy figure (STUDY_ACC_TOTAL for "1%", STUDY_ACC_DISPLAY for
+ * "0.5lev", the worst display error in 8-bit levels). */
 /* What each knob buys: the best total and FPN-alone error at each value of every swept knob. */
 void study_print_knobs(const study *s);
 /* study.json in outdir (and on stdout with to_stdout), with the answer for each of n targets.
  * @return a sysexits code */
-int study_write_json(const study *s, const char *outdir, const double *targets, int n, double wall_s, int to_stdout);
-/* study_vs_image_time.png, study_vs_cal_time.png, study_vs_table_bytes.png, each with a line per
- * target. @return a sysexits code */
-int study_plot(const study *s, const char *outdir, const double *targets, int n);
+int study_write_json(const study *s, const char *outdir, const double *targets, const int *accs, int n, double wall_s,
+                     int to_stdout);
+/* study_vs_image_time.png, study_vs_cal_time.png, study_vs_table_bytes.png,
+ * study_vs_m7_instructions.png, study_vs_table_bandwidth.png, each with a line per contrast target.
+ * @return a sysexits code */
+int study_plot(const study *s, const char *outdir, const double *targets, const int *accs, int n);
 /* A point's knobs in one line (for tables and messages). */
 void study_point_label(const study_point *p, char *out, int outlen);
 

@@ -396,6 +396,8 @@ static void table_costs(const study *s, const study_point *p, const study_chip *
     size_t header = wdr_cal_size(1, 1, 0) - wdr_cal_row_stride(1, 0);
     r->table_bytes = (double)header + shared + (double)full->width * full->height * r->table_bpp;
     r->bandwidth_Bps = r->table_bytes * s->fps;
+    r->bus_Bps = full->table_bus_mbps * 1e6;
+    r->bus_feeds = !(r->bus_Bps > 0) || r->bandwidth_Bps <= r->bus_Bps;
     r->correct_ns_px = correct_ns_per_pixel(chip, c);
     study_m7_for(c->tab.h.form, n, &r->m7_instr_px, &r->m7_row_px);
 }

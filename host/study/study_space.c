@@ -411,6 +411,8 @@ static void fill_point(const space *sp, const int *i, study_point *p)
               : p->model == WDR_MODEL_SIMPLE3 ? WDR_FORM_MOEBIUS
               : p->model == WDR_MODEL_SPLINE  ? WDR_FORM_BASIS
                                               : WDR_FORM_POLY;
+    if (wdr_cal_form_compact((uint16_t)p->form))
+        p->n_coeffs = WDR_CAL_COMPACT_COEFFS; /* fixed by the form */
 }
 
 int study_expand(const study_knobs *k, study *s, int *skipped)

@@ -16,6 +16,7 @@ typedef struct study_opts {
     study_knobs k; /* the command line's lists; a study file fills what they leave out */
     const char *board, *file, *outdir, *range, *targets, *shard;
     double lo, hi, fps, target[STUDY_MAX_TARGETS];
+    int target_acc[STUDY_MAX_TARGETS]; /* STUDY_ACC_TOTAL ("1%"), STUDY_ACC_DISPLAY ("0.5lev") */
     int jobs, json, no_plots, plots, n_targets, merge, shard_k, shard_n, n_args;
     char **args; /* --merge: the shard files */
     uint64_t seed;
@@ -32,7 +33,8 @@ static const cli_option study_rows[] = {
     {"json", 0, CLI_FLAG, O(json), NULL, "print the JSON instead of the tables"},
     {"no-plots", 0, CLI_FLAG, O(no_plots), NULL, "no gnuplot plots"},
     {"range", 0, CLI_STRING, O(range), "LO:HI", "photocurrent range judged, A (default 1e-14:1e-8)"},
-    {"target", 0, CLI_STRING, O(targets), "P%,..", "worst contrast errors to answer: the cheapest design for each"},
+    {"target", 0, CLI_STRING, O(targets), "P%,L lev,..",
+     "targets to answer, each on its own: worst contrast error (1%) or worst display error in 8-bit levels (0.5lev)"},
     {"fps", 0, CLI_DOUBLE, O(fps), "F", "frame rate for the table bandwidth (default 30)", .min = 1e-3, .max = 1e5},
     {"jobs", 0, CLI_INT, O(jobs), "N", "worker processes (default 2)", .min = 1, .max = 64},
     {"seed", 0, CLI_U64, O(seed), "N", "chip and frame seed (default 1)"},
@@ -79,7 +81,8 @@ static int parse_range(const char *v, double *lo, double *hi)
     return EX_OK;
 }
 
-/* "1%,3%": up to STUDY_MAX_TARGETS worst contrast errors, each answered from the same points. */
+/* "1%,0.5lev": up to STUDY_MAX_TARGETS targets, each answered from the same points: a worst
+ * contrast error (%, or a bare number), or a worst display error in 8-bit levels (lev). */
 static int parse_targets(const char *v, study_opts *o)
 {
     char buf[256], *save = NULL;
@@ -89,11 +92,16 @@ static int parse_targets(const char *v, study_opts *o)
         if (o->n_targets == STUDY_MAX_TARGETS)
             return wdrctl_fail(EX_USAGE, "study: --target: at most %d targets", STUDY_MAX_TARGETS);
         size_t n = strlen(t);
+        int *acc = &o->target_acc[o->n_targets];
+        *acc = STUDY_ACC_TOTAL;
         if (n && t[n - 1] == '%') /* --target 1% */
             t[n - 1] = 0;
+        else if (n > 3 && !strcmp(t + n - 3, "lev")) /* --target 0.5lev */
+            t[n - 3] = 0, *acc = STUDY_ACC_DISPLAY;
         double *out = &o->target[o->n_targets++];
         if (cli_number_double(t, 1e-3, 1e4, out) != CLI_NUM_OK)
-            return wdrctl_fail(EX_USAGE, "study: --target '%s' must be a number in 0.001..10000 (%%)", v);
+            return wdrctl_fail(EX_USAGE, "study: --target '%s' must be numbers in 0.001..10000, each with %% or lev",
+                               v);
     }
     return EX_OK;
 }
@@ -144,17 +152,19 @@ static int outputs(const study *s, const study_opts *o, double wall)
         study_print_table(s);
         study_print_fronts(s);
         for (int t = 0; t < o->n_targets; t++)
-            study_print_target(s, o->target[t]);
+            study_print_target(s, o->target[t], o->target_acc[t]);
         study_print_knobs(s);
         printf("\n%d points in %.1f s on %d jobs (%.2f s per point per job)\n", s->n, wall, s->jobs,
                wall * s->jobs / s->n);
     }
-    int rc = study_write_json(s, o->outdir, o->target, o->n_targets, wall, o->json);
+    int rc = study_write_json(s, o->outdir, o->target, o->target_acc, o->n_targets, wall, o->json);
     if (rc == EX_OK && o->plots)
-        rc = study_plot(s, o->outdir, o->target, o->n_targets);
+        rc = study_plot(s, o->outdir, o->target, o->target_acc, o->n_targets);
     if (rc == EX_OK)
         fprintf(stderr, "wdrctl: study in %s (study.json%s)\n", o->outdir,
-                o->plots ? ", study_vs_image_time.png, study_vs_cal_time.png, study_vs_table_bytes.png" : "");
+                o->plots ? ", study_vs_image_time.png, study_vs_cal_time.png, study_vs_table_bytes.png, "
+                            "study_vs_m7_instructions.png, study_vs_table_bandwidth.png"
+                          : "");
     return rc;
 }
 
