@@ -137,21 +137,21 @@ static int round_coefficients(calib *c, int bits)
  * few pixels of a study-sized array. */
 static double basis_learn_time(const calib *c)
 {
-    static double learnt_s[WDR_CAL_MAX_COEFFS + 1];
-    int n = c->cfg.n_coeffs;
+    static double learnt_s[2][WDR_CAL_MAX_COEFFS + 1]; /* [SHIFTED: it learns twice][n] */
+    int n = c->cfg.n_coeffs, shifted = c->cfg.form == WDR_FORM_SHIFTED;
     int shared = c->cfg.form == WDR_FORM_BASIS || wdr_cal_form_compact((uint16_t)c->cfg.form);
     if (!shared || n < 1 || n > (int)WDR_CAL_MAX_COEFFS)
         return 0;
-    if (learnt_s[n] > 0)
-        return learnt_s[n];
+    if (learnt_s[shifted][n] > 0)
+        return learnt_s[shifted][n];
     char err[160];
     wdr_basis b;
     double t0 = cpu_s();
-    int rc = wdr_cal_basis_learn(&c->res, n, c->cfg.form == WDR_FORM_SHIFTED, &b, err, sizeof err);
-    learnt_s[n] = cpu_s() - t0;
+    int rc = wdr_cal_basis_learn(&c->res, n, shifted, &b, err, sizeof err);
+    learnt_s[shifted][n] = cpu_s() - t0;
     if (!rc)
         wdr_cal_basis_free(&b);
-    return learnt_s[n];
+    return learnt_s[shifted][n];
 }
 
 static int calibrate(const study *s, const study_point *p, study_chip *chip, calib *c, study_result *r)
