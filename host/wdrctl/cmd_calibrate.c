@@ -318,16 +318,16 @@ static void choose_form(wdr_cal_config *cfg, const wdr_operator_info *op)
         return;
     const wdr_form_figure *f = wdr_form_auto(wdr_form_figures, wdr_form_figures_n, op->id, t, rej, &nr);
     for (int k = 0; k < nr; k++)
-        fprintf(stderr, "form auto: %s rejected for %s: %.2f %% analog (target %.2g %%)%s\n",
-                cal_form_name(rej[k]->form), op->name, rej[k]->analog_pct, t.analog_pct,
-                isnan(rej[k]->floor_ratio) ? "" : " or over the floor ratio");
+        fprintf(stderr, "form auto: %s rejected for %s: %.2f %% analog (target %.2g %%), %.2fx the 12-bit floor (target %.2gx)\n",
+                cal_form_name(rej[k]->form), op->name, rej[k]->analog_pct, t.analog_pct, rej[k]->floor_ratio,
+                t.floor_ratio);
     if (!f) {
         fprintf(stderr, "form auto: no measured form meets the target for %s: basis-8\n", op->name);
         return; /* wdr_cal_config_defaults' basis-8 */
     }
     cfg->form = f->form, cfg->n_coeffs = f->n_coeffs;
-    fprintf(stderr, "form auto: %s for %s (%.0f B/px, %.2f %% analog worst measured%s)\n", cal_form_name(f->form),
-            op->name, f->bytes_px, f->analog_pct, isnan(f->floor_ratio) ? "; 12-bit ratio to the floor not measured" : "");
+    fprintf(stderr, "form auto: %s for %s (%.0f B/px; measured: %.2f %% analog worst, %.2fx the 12-bit floor)\n",
+            cal_form_name(f->form), op->name, f->bytes_px, f->analog_pct, f->floor_ratio);
 }
 
 int cmd_calibrate(int argc, char **argv)
