@@ -18,8 +18,10 @@
 /* analog worst % (c s p b) and 12-bit ratio to the floor (cf sf pf bf) of compact, shifted, poly-5,
  * basis-8 */
 #define ROWS(op, c, s, p, b, cf, sf, pf, bf)                                                                           \
-    {op, WDR_FORM_COMPACT, 4, 9, c, cf}, {op, WDR_FORM_SHIFTED, 4, 9, s, sf}, {op, WDR_FORM_POLY, 5, 21, p, pf},      \
-        {op, WDR_FORM_BASIS, 8, 33, b, bf}
+    {op, WDR_FORM_COMPACT, 4, 9, c, cf}, {op, WDR_FORM_SHIFTED, 4, 9, s, sf}, {op, WDR_FORM_POLY, 5, 21, p, pf},       \
+    {                                                                                                                  \
+        op, WDR_FORM_BASIS, 8, 33, b, bf                                                                               \
+    }
 
 const wdr_form_figure wdr_form_figures[] = {
     ROWS(WDR_OP_REINHARD, 0.827, 0.928, 0.262, 0.195, 0.867, 0.944, 0.872, 0.980),

@@ -6,11 +6,11 @@
 
 /* One form's measured figures for one operator (spline model, 19 levels). */
 typedef struct wdr_form_figure {
-    int op;            /* operator id (wdr_lut.h) */
+    int op; /* operator id (wdr_lut.h) */
     int form, n_coeffs;
-    double bytes_px;   /* table bytes per pixel (coefficients + flag byte) */
-    double analog_pct; /* worst analog contrast error, % (worst over the chips measured) */
-    double floor_ratio;/* worst 12-bit error over the quantisation floor; NAN where not measured */
+    double bytes_px;    /* table bytes per pixel (coefficients + flag byte) */
+    double analog_pct;  /* worst analog contrast error, % (worst over the chips measured) */
+    double floor_ratio; /* worst 12-bit error over the quantisation floor; NAN where not measured */
 } wdr_form_figure;
 
 /* The target: analog <= analog_pct and, where measured, <= floor_ratio x the floor. */

@@ -9,8 +9,8 @@
 #include <math.h>
 
 static const study_m7_count counts[] = {
-    {WDR_FORM_IDENTITY, 0, 8.13, 17.55},  {WDR_FORM_MOEBIUS, 3, 26.57, 36.10},  {WDR_FORM_POLY, 5, 51.65, 61.18},
-    {WDR_FORM_BASIS, 8, 90.75, 100.28},   {WDR_FORM_COMPACT, 4, 22.54, 32.07}, {WDR_FORM_SHIFTED, 4, 21.58, 31.12},
+    {WDR_FORM_IDENTITY, 0, 8.13, 17.55}, {WDR_FORM_MOEBIUS, 3, 26.57, 36.10}, {WDR_FORM_POLY, 5, 51.65, 61.18},
+    {WDR_FORM_BASIS, 8, 90.75, 100.28},  {WDR_FORM_COMPACT, 4, 22.54, 32.07}, {WDR_FORM_SHIFTED, 4, 21.58, 31.12},
 };
 
 const study_m7_count *study_m7_counts(int *n)

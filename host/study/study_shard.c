@@ -63,9 +63,17 @@ void study_shard_select(study *s, int k, int n)
 
 int study_shard_write(const study *s, int k, int n, const char *path, double wall_s)
 {
-    shard_head h = {.version = SHARD_VERSION, .k = (uint32_t)k, .n = (uint32_t)n, .points = (uint32_t)s->full_n,
-                    .point_size = sizeof(study_point), .result_size = sizeof(study_result), .range_lo = s->range_lo,
-                    .range_hi = s->range_hi, .fps = s->fps, .seed = s->seed, .wall_s = wall_s,
+    shard_head h = {.version = SHARD_VERSION,
+                    .k = (uint32_t)k,
+                    .n = (uint32_t)n,
+                    .points = (uint32_t)s->full_n,
+                    .point_size = sizeof(study_point),
+                    .result_size = sizeof(study_result),
+                    .range_lo = s->range_lo,
+                    .range_hi = s->range_hi,
+                    .fps = s->fps,
+                    .seed = s->seed,
+                    .wall_s = wall_s,
                     .count = (uint32_t)s->n};
     memcpy(h.magic, SHARD_MAGIC, 4);
     snprintf(h.board, sizeof h.board, "%s", s->board);
@@ -100,8 +108,7 @@ static int read_one(const char *path, study *s, shard_head *first, int *seen, do
     else if (h.point_size != sizeof(study_point) || h.result_size != sizeof(study_result))
         rc = fail(EX_DATAERR, "%s: written by another build (point %u, result %u bytes)", path, h.point_size,
                   h.result_size);
-    else if (h.points == 0 || h.points > STUDY_MAX_POINTS || h.n == 0 || h.k == 0 || h.k > h.n ||
-             h.count > h.points)
+    else if (h.points == 0 || h.points > STUDY_MAX_POINTS || h.n == 0 || h.k == 0 || h.k > h.n || h.count > h.points)
         rc = fail(EX_DATAERR, "%s: field 'shard' %u/%u out of range", path, h.k, h.n);
     else if (first->version && !same_study(first, &h))
         rc = fail(EX_DATAERR, "%s: another study (board, range, fps, seed or shard count differ), shard %u/%u", path,
@@ -146,7 +153,8 @@ int study_shard_merge(char **paths, int n_paths, study *s, char *board, int boar
         rc = fail(EX_USAGE, "--merge needs the shard files");
     for (uint32_t k = 0; rc == EX_OK && k < first.n; k++)
         if (!seen[k])
-            rc = fail(EX_DATAERR, "shard %u/%u missing: every shard of the study is needed (%d files given)", k + 1, first.n, n_paths);
+            rc = fail(EX_DATAERR, "shard %u/%u missing: every shard of the study is needed (%d files given)", k + 1,
+                      first.n, n_paths);
     if (rc == EX_OK) {
         snprintf(board, (size_t)board_len, "%s", first.board);
         s->board = board, s->range_lo = first.range_lo, s->range_hi = first.range_hi, s->fps = first.fps;

@@ -99,12 +99,14 @@ static int judge(chip *c, const wdr_cal_result *res, int form, int n, const doub
 
 int main(int argc, char **argv)
 {
-    static const char *const all[] = {"reinhard", "reinhard_white", "schlick", "tumblin_rushmeier", "drago",
-                                      "exponential", "logarithmic"};
+    static const char *const all[] = {"reinhard", "reinhard_white", "schlick",    "tumblin_rushmeier",
+                                      "drago",    "exponential",    "logarithmic"};
     static const struct {
         const char *name;
         int form, n;
-    } forms[] = {{"compact", WDR_FORM_COMPACT, 4}, {"shifted", WDR_FORM_SHIFTED, 4}, {"poly-5", WDR_FORM_POLY, 5},
+    } forms[] = {{"compact", WDR_FORM_COMPACT, 4},
+                 {"shifted", WDR_FORM_SHIFTED, 4},
+                 {"poly-5", WDR_FORM_POLY, 5},
                  {"basis-8", WDR_FORM_BASIS, 8}};
     const char *ops = "reinhard";
     int quick = 0;
