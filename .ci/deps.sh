@@ -3,7 +3,7 @@
 # the exact apt-get line and fails. Sourced by .ci/demo and .ci/test.
 WDR_PACKAGES="build-essential cmake pkg-config libcjson-dev libpng-dev libstb-dev libopenexr-dev \
 libcmocka-dev libusb-1.0-0-dev libgpiod-dev gnuplot-nox gcc-arm-none-eabi libnewlib-arm-none-eabi \
-clang-tidy cppcheck groff-base qemu-system-arm gdb-multiarch \
+clang-tidy cppcheck groff-base qemu-system-arm gdb-multiarch parallel jq bc \
 qemu-system-x86 busybox-static cpio kmod xz-utils systemd clang-14 libclang-rt-14-dev \
 libmbedtls-dev libssl-dev openssl valgrind"
 # firmware/boot/fetch_mbedtls.sh fetches the source of Debian's mbedtls for the Cortex-M7 into build-m7

@@ -17,7 +17,7 @@ uint32_t wdr_cal_row_stride(uint16_t width, uint16_t n_coeffs)
 /* COMPACT: 2 bytes a coefficient, pixel-major; the flags as in every form. */
 uint32_t wdr_cal_form_row_stride(uint16_t form, uint16_t width, uint16_t n_coeffs)
 {
-    if (form != WDR_FORM_COMPACT)
+    if (!wdr_cal_form_compact(form))
         return wdr_cal_row_stride(width, n_coeffs);
     return (uint32_t)n_coeffs * width * 2u + (((uint32_t)width + 3u) & ~3u);
 }
@@ -30,7 +30,7 @@ size_t wdr_cal_size(uint16_t width, uint16_t height, uint16_t n_coeffs)
 /* COMPACT: K points of 4 functions, then the 4 coefficient scales and the 4 offsets. */
 uint32_t wdr_cal_shared_bytes(const wdr_cal_header *h)
 {
-    if (h->form == WDR_FORM_COMPACT)
+    if (wdr_cal_form_compact(h->form))
         return (h->shared_points * WDR_CAL_COMPACT_COEFFS + WDR_CAL_COMPACT_EXTRA) * 4u;
     return h->form == WDR_FORM_BASIS ? h->shared_points * h->n_coeffs * 4u : 0u;
 }
@@ -57,6 +57,7 @@ int wdr_cal_form_coeffs_ok(uint16_t form, uint16_t n_coeffs)
     case WDR_FORM_BASIS:
         return n_coeffs >= 2 && n_coeffs <= WDR_CAL_MAX_COEFFS;
     case WDR_FORM_COMPACT:
+    case WDR_FORM_SHIFTED:
         return n_coeffs == WDR_CAL_COMPACT_COEFFS;
     default:
         return 0;
@@ -85,7 +86,7 @@ int wdr_cal_shared_check(const float *shared, uint16_t n_coeffs, uint32_t shared
 int wdr_cal_shared_ok(const wdr_cal_header *h, const float *shared)
 {
     int err = wdr_cal_shared_check(shared, h->n_coeffs, h->shared_points);
-    if (err || h->form != WDR_FORM_COMPACT)
+    if (err || !wdr_cal_form_compact(h->form))
         return err;
     const float *scale = shared + (size_t)h->shared_points * WDR_CAL_COMPACT_COEFFS;
     for (uint32_t k = 0; k < WDR_CAL_COMPACT_COEFFS; k++)
@@ -176,7 +177,7 @@ const uint32_t *wdr_cal_row_compact(const wdr_cal_view *v, int row)
 
 const uint8_t *wdr_cal_row_flags(const wdr_cal_view *v, int row)
 {
-    size_t coeff_bytes = v->h.form == WDR_FORM_COMPACT ? 2u : 4u;
+    size_t coeff_bytes = wdr_cal_form_compact(v->h.form) ? 2u : 4u;
     return v->payload + (size_t)row * v->row_stride + (size_t)v->h.n_coeffs * v->h.width * coeff_bytes;
 }
 
@@ -205,7 +206,10 @@ static void seal(wdr_cal_header *h, uint8_t *out)
     h->magic = WDR_CAL_MAGIC;
     h->version_major = WDR_CAL_VERSION_MAJOR;
     /* older readers keep reading the forms they know */
-    h->version_minor = h->form == WDR_FORM_COMPACT ? 2 : h->form == WDR_FORM_BASIS ? 1 : 0;
+    h->version_minor = h->form == WDR_FORM_SHIFTED   ? 3
+                       : h->form == WDR_FORM_COMPACT ? 2
+                       : h->form == WDR_FORM_BASIS   ? 1
+                                                     : 0;
     h->reserved = 0;
     h->payload_len = wdr_cal_shared_bytes(h) + wdr_cal_form_row_stride(h->form, h->width, h->n_coeffs) * h->height;
     h->payload_crc = wdr_crc32(0, out + WDR_CAL_HEADER_SIZE, h->payload_len);
@@ -260,7 +264,7 @@ void wdr_cal_encode_compact(wdr_cal_header *h, const float *shared, const float 
 {
     const uint32_t n = WDR_CAL_COMPACT_COEFFS, w = h->width;
     const size_t plane = (size_t)w * h->height;
-    h->form = WDR_FORM_COMPACT;
+    h->form = h->form == WDR_FORM_SHIFTED ? WDR_FORM_SHIFTED : WDR_FORM_COMPACT;
     h->n_coeffs = (uint16_t)n;
     uint8_t *p = out + WDR_CAL_HEADER_SIZE;
     for (uint32_t j = 0; j < h->shared_points * n; j++, p += 4)
@@ -293,7 +297,7 @@ static int header_check(const wdr_cal_header *h)
         return WDR_E_INVAL;
     /* Products in 64 bits: shared_points comes from outside, and 0x40000001 * 4 wraps to 4 in u32. */
     if (h->form == WDR_FORM_BASIS ? h->shared_points < 2 || (uint64_t)h->shared_points * h->n_coeffs > WDR_CAL_MAX_SHARED_FLOATS
-        : h->form == WDR_FORM_COMPACT
+        : wdr_cal_form_compact(h->form)
             ? h->shared_points < 2 ||
                   (uint64_t)h->shared_points * WDR_CAL_COMPACT_COEFFS > WDR_CAL_MAX_SHARED_FLOATS
             : h->shared_points != 0)
@@ -323,7 +327,7 @@ static int coefficients_check(const wdr_cal_view *v)
 {
     uint32_t bad = 0;
     for (int row = 0; row < v->h.height; row++) {
-        for (int k = 0; v->h.form != WDR_FORM_COMPACT && k < v->h.n_coeffs; k++) { /* int16: always finite */
+        for (int k = 0; !wdr_cal_form_compact(v->h.form) && k < v->h.n_coeffs; k++) { /* int16: always finite */
             const float *c = wdr_cal_row_coeffs(v, row, k);
             for (int i = 0; i < v->h.width; i++)
                 if (!finite_f(c[i]))
@@ -333,7 +337,7 @@ static int coefficients_check(const wdr_cal_view *v)
             return WDR_E_NUMERIC;
         const uint8_t *f = wdr_cal_row_flags(v, row);
         for (int i = 0; i < v->h.width; i++)
-            bad += f[i] != 0;
+            bad += wdr_cal_pixel_flags(v->h.form, f[i]) != 0;
     }
     return bad == v->h.bad_pixels ? WDR_OK : WDR_E_INVAL;
 }
@@ -364,6 +368,7 @@ int wdr_cal_parse(const void *buf, size_t len, wdr_cal_view *out)
     out->row_stride = wdr_cal_form_row_stride(out->h.form, out->h.width, out->h.n_coeffs);
     out->code_q = NULL;
     out->code_shift = 0;
+    out->code_sat = 0;
     if (wdr_crc32(0, p + WDR_CAL_HEADER_SIZE, out->h.payload_len) != out->h.payload_crc)
         return WDR_E_CORRUPT;
     if (out->shared && wdr_cal_shared_ok(&out->h, out->shared))

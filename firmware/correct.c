@@ -226,6 +226,51 @@ static void compact_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *
         compact_codes_bits(cal, row, raw, out, 0);
 }
 
+/* SHIFTED: the same loop, each pixel reading its own shifted code (its byte after the words): the
+ * raw code needs no clamp of its own (y + b is clamped once), and the points are addressed from
+ * WDR_CAL_SHIFT_ZERO codes below code 0, so the shift costs one byte load and one add. */
+/* The shifted code's clamp: sat (a literal) 13 is one USAT to 2^13 - 1 on the controller, the points
+ * beyond raw_max + 64 being copies of the last; 0 a compare with top. */
+static inline uint32_t shifted_clamp(uint32_t u, uint32_t top, const int sat)
+{
+#if defined(__ARM_FEATURE_SAT)
+    if (sat == 13)
+        return (uint32_t)__usat((int32_t)u, 13);
+#endif
+    if (sat == 13)
+        return u < (1u << 13) - 1u ? u : (1u << 13) - 1u;
+    return u < top ? u : top;
+}
+
+static inline void shifted_codes_bits(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out,
+                                      const int bits, const int sat)
+{
+    const uint32_t *c = wdr_cal_row_compact(cal, row);
+    const uint32_t *points = cal->code_q - WDR_CAL_COMPACT_POINT_WORDS * WDR_CAL_SHIFT_ZERO;
+#if defined(__GNUC__)
+    __asm__("" : "+r"(points)); /* GCC folds the offset back into every pixel's index: keep it here */
+#endif
+    const uint8_t *b = wdr_cal_row_flags(cal, row);
+    const uint32_t top = (uint32_t)cal->h.raw_max + WDR_CAL_SHIFT_ZERO, shift = cal->code_shift;
+    const int32_t m = cal->h.out_max;
+    for (const uint16_t *end = raw + cal->h.width; raw < end; c += 2) {
+        uint32_t u = shifted_clamp((uint32_t)*raw++ + *b++, top, sat);
+        *out++ = compact_output(wdr_compact_value(c, points + WDR_CAL_COMPACT_POINT_WORDS * u, shift), m, bits);
+    }
+}
+
+static void shifted_codes_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
+{
+    if (cal->code_sat == WDR_CAL_SHIFT_SAT_BITS && cal->h.out_max == 4095u)
+        shifted_codes_bits(cal, row, raw, out, 12, 13);
+    else if (cal->code_sat == WDR_CAL_SHIFT_SAT_BITS)
+        shifted_codes_bits(cal, row, raw, out, 0, 13);
+    else if (cal->h.out_max == 4095u)
+        shifted_codes_bits(cal, row, raw, out, 12, 0);
+    else
+        shifted_codes_bits(cal, row, raw, out, 0, 0);
+}
+
 /* Without the per-code points (an ADC wider than the buffer, host tools): each pixel's point is
  * computed as wdr_correct_per_code_compact would have tabulated it, so the bits are the same. */
 static void compact_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, uint16_t *out)
@@ -235,52 +280,62 @@ static void compact_u16(const wdr_cal_view *cal, int row, const uint16_t *raw, u
     const int32_t m = cal->h.out_max;
     float g[WDR_CAL_COMPACT_COEFFS];
     wdr_compact_gains(cal, shift, g);
+    const uint8_t *b = cal->h.form == WDR_FORM_SHIFTED ? wdr_cal_row_flags(cal, row) : NULL;
     for (int i = 0; i < cal->h.width; i++) {
-        uint32_t p[WDR_CAL_COMPACT_POINT_WORDS];
-        wdr_compact_point(cal, g, shift, raw[i] < top ? raw[i] : top, p);
+        uint32_t p[WDR_CAL_COMPACT_POINT_WORDS], y = raw[i] < top ? raw[i] : top;
+        wdr_compact_point(cal, g, shift, b ? wdr_shifted_code(raw[i], b[i], top) : (int32_t)y, p);
         out[i] = compact_output(wdr_compact_value(c + 2 * i, p, shift), m, 0);
     }
 }
 
 int wdr_correct_per_code_compact(wdr_cal_view *cal, uint32_t *points, size_t capacity)
 {
-    if (!cal || !points || cal->h.form != WDR_FORM_COMPACT || !cal->shared || cal->h.shared_points < 2 ||
+    if (!cal || !points || !wdr_cal_form_compact(cal->h.form) || !cal->shared || cal->h.shared_points < 2 ||
         cal->h.n_coeffs != WDR_CAL_COMPACT_COEFFS || cal->h.raw_max == 0)
         return WDR_E_INVAL;
-    const uint32_t codes = (uint32_t)cal->h.raw_max + 1u;
+    const int32_t pad = cal->h.form == WDR_FORM_SHIFTED ? (int32_t)WDR_CAL_SHIFT_PAD : 0;
+    const uint32_t codes = (uint32_t)cal->h.raw_max + 1u + (uint32_t)pad, sat_codes = 1u << WDR_CAL_SHIFT_SAT_BITS;
     if ((size_t)codes * WDR_CAL_COMPACT_POINT_WORDS > capacity)
         return WDR_E_TOO_LARGE;
+    /* SHIFTED with room: points up to 2^13 codes, those past the last code copies of it */
+    const int sat = pad && codes <= sat_codes && (size_t)sat_codes * WDR_CAL_COMPACT_POINT_WORDS <= capacity;
     const uint32_t shift = wdr_compact_shift(cal);
     float g[WDR_CAL_COMPACT_COEFFS];
     wdr_compact_gains(cal, shift, g);
-    for (uint32_t y = 0; y < codes; y++)
-        wdr_compact_point(cal, g, shift, y, points + WDR_CAL_COMPACT_POINT_WORDS * y);
-    cal->code_q = points;
+    for (uint32_t j = 0; j < codes; j++)
+        wdr_compact_point(cal, g, shift, (int32_t)j - pad, points + WDR_CAL_COMPACT_POINT_WORDS * j);
+    for (uint32_t j = codes; sat && j < sat_codes; j++)
+        for (uint32_t w = 0; w < WDR_CAL_COMPACT_POINT_WORDS; w++)
+            points[WDR_CAL_COMPACT_POINT_WORDS * j + w] = points[WDR_CAL_COMPACT_POINT_WORDS * (codes - 1u) + w];
+    cal->code_q = points + WDR_CAL_COMPACT_POINT_WORDS * (uint32_t)pad; /* code 0 */
+    cal->code_sat = sat ? WDR_CAL_SHIFT_SAT_BITS : 0u;
     cal->code_shift = shift;
     return WDR_OK;
 }
 
 /* ---- bad pixels: each run of flagged pixels takes the mean of the good pixels around it ---- */
 
-static int next_flagged(const uint8_t *f, int i, int w)
+/* mask: the bits of a byte that mean flagged (wdr_cal_flag_mask). */
+static int next_flagged(const uint8_t *f, int i, int w, uint8_t mask)
 {
+    const uint64_t wide = mask * 0x0101010101010101ull;
     while (i + 8 <= w) { /* most rows have no flags: skip eight at a time */
         uint64_t word;
         __builtin_memcpy(&word, f + i, 8); /* the builtin: -ffreestanding makes memcpy a call */
-        if (word)
+        if (word & wide)
             break;
         i += 8;
     }
-    while (i < w && !f[i])
+    while (i < w && !(f[i] & mask))
         i++;
     return i;
 }
 
-static void patch_u16(const uint8_t *f, int w, uint16_t *out)
+static void patch_u16(const uint8_t *f, int w, uint8_t mask, uint16_t *out)
 {
-    for (int s = next_flagged(f, 0, w); s < w; s = next_flagged(f, s, w)) {
+    for (int s = next_flagged(f, 0, w, mask); s < w; s = next_flagged(f, s, w, mask)) {
         int e = s;
-        while (e < w && f[e])
+        while (e < w && (f[e] & mask))
             e++;
         uint32_t fill;
         if (s > 0 && e < w)
@@ -306,7 +361,7 @@ int wdr_correct_row_ok(const wdr_cal_view *cal, int row, const void *raw, const 
         return 0;
     if (cal->h.form == WDR_FORM_IDENTITY)
         return 1;
-    int shared = cal->h.form == WDR_FORM_BASIS || cal->h.form == WDR_FORM_COMPACT;
+    int shared = cal->h.form == WDR_FORM_BASIS || wdr_cal_form_compact(cal->h.form);
     return cal->payload && (!shared || (cal->shared && cal->h.shared_points >= 2));
 }
 
@@ -318,6 +373,7 @@ static row_fn *kernel_for(const wdr_cal_view *cal)
     case WDR_FORM_MOEBIUS: return moebius_u16;
     case WDR_FORM_POLY: return poly_by_n[n];
     case WDR_FORM_BASIS: return points_are_codes(cal) ? codes_by_n[n] : basis_by_n[n];
+    case WDR_FORM_SHIFTED: return cal->code_q ? shifted_codes_u16 : compact_u16;
     default: return cal->code_q ? compact_codes_u16 : compact_u16; /* COMPACT: _ok admits no other form */
     }
 }
@@ -328,6 +384,6 @@ int wdr_correct_row(const wdr_cal_view *cal, int row, const uint16_t *raw, uint1
         return WDR_E_INVAL;
     kernel_for(cal)(cal, row, raw, out);
     if (cal->h.form != WDR_FORM_IDENTITY && cal->h.bad_pixels)
-        patch_u16(wdr_cal_row_flags(cal, row), cal->h.width, out);
+        patch_u16(wdr_cal_row_flags(cal, row), cal->h.width, wdr_cal_flag_mask(cal->h.form), out);
     return WDR_OK;
 }

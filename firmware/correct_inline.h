@@ -155,9 +155,9 @@ static inline int32_t wdr_floor_i32(float x)
     return (float)i > x ? i - 1 : i;
 }
 
-/* The words of code y: frac(y) 2^F + 2^(F-1), P0 | P1 << 16, P2 | P3 << 16, int(y). */
+/* The words of code y (SHIFTED: down to -WDR_CAL_SHIFT_PAD): frac(y) 2^F + 2^(F-1), P0 | P1 << 16, P2 | P3 << 16, int(y). */
 static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_CAL_COMPACT_COEFFS], uint32_t shift,
-                                     uint32_t y, uint32_t out[WDR_CAL_COMPACT_POINT_WORDS])
+                                     int32_t y, uint32_t out[WDR_CAL_COMPACT_POINT_WORDS])
 {
     const uint32_t n = WDR_CAL_COMPACT_COEFFS;
     float f, b[WDR_CAL_COMPACT_COEFFS];
@@ -178,6 +178,15 @@ static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_
     out[1] = q[0] | q[1] << 16;
     out[2] = q[2] | q[3] << 16;
     out[3] = (uint32_t)whole;
+}
+
+/* SHIFTED: the code a pixel with byte b reads for raw code y, min(y + b, raw_max + 64) - 64, in
+ * [-WDR_CAL_SHIFT_PAD, raw_max] for any y (no clamp of y first): one add and one clamp on the
+ * controller. */
+static inline int32_t wdr_shifted_code(uint32_t y, uint32_t b, uint32_t raw_max)
+{
+    uint32_t u = y + b, top = raw_max + WDR_CAL_SHIFT_ZERO;
+    return (int32_t)(u < top ? u : top) - (int32_t)WDR_CAL_SHIFT_ZERO;
 }
 
 /* acc + lo(a) lo(b) + hi(a) hi(b), signed 16-bit halves: one SMLAD on a DSP core. */

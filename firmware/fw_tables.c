@@ -14,7 +14,9 @@
  * program has one firmware (wdr_fw.h), so one table. A wider ADC than it holds interpolates. */
 static union {
     float basis[WDR_FW_CAL_CODES * WDR_FW_MAX_CAL_COEFFS];
-    uint32_t compact[WDR_FW_CAL_CODES * 4u]; /* COMPACT: base and two int16 pairs per code, 16 bytes */
+    /* COMPACT: base and two int16 pairs per code, 16 bytes; SHIFTED also the codes below 0 and,
+     * for one USAT a pixel, on to twice the codes (no more RAM: basis is 8 floats a code) */
+    uint32_t compact[WDR_FW_CAL_CODES * 8u];
 } cal_code_points;
 
 /* A stored table: read through the store (fw_store.c), which alone knows the slots' layout. */
@@ -78,7 +80,7 @@ static void row_view(const wdr_fw *fw, const wdr_cal_view *full, wdr_cal_view *r
 /* The kernel trusts its table: finite coefficients, denominators away from zero. */
 static int cal_row_check(const wdr_cal_view *rv, uint32_t *bad)
 {
-    for (int k = 0; rv->h.form != WDR_FORM_COMPACT && k < rv->h.n_coeffs; k++) { /* int16: always finite */
+    for (int k = 0; !wdr_cal_form_compact(rv->h.form) && k < rv->h.n_coeffs; k++) { /* int16: always finite */
         const float *c = wdr_cal_row_coeffs(rv, 0, k);
         for (int i = 0; i < rv->h.width; i++)
             if (!finite_bits(c[i]))
@@ -92,7 +94,7 @@ static int cal_row_check(const wdr_cal_view *rv, uint32_t *bad)
     }
     const uint8_t *f = wdr_cal_row_flags(rv, 0);
     for (int i = 0; i < rv->h.width; i++)
-        *bad += f[i] != 0;
+        *bad += wdr_cal_pixel_flags(rv->h.form, f[i]) != 0;
     return WDR_OK;
 }
 
@@ -214,7 +216,7 @@ void wdr_fw_table_activate(wdr_fw *fw, int kind, int slot)
         if (fw->cal.shared) {
             fw->cal_shared_buf ^= 1; /* the staging buffer the check filled is now the active one */
             /* TOO_LARGE (more codes than WDR_FW_CAL_CODES) leaves the view interpolating */
-            if (fw->cal.h.form == WDR_FORM_COMPACT)
+            if (wdr_cal_form_compact(fw->cal.h.form))
                 (void)wdr_correct_per_code_compact(&fw->cal, cal_code_points.compact,
                                                    sizeof cal_code_points.compact / sizeof(uint32_t));
             else

@@ -12,7 +12,8 @@
 
 #define WDR_CAL_MAGIC 0x4c414357u /* "WCAL" */
 #define WDR_CAL_VERSION_MAJOR 1
-#define WDR_CAL_VERSION_MINOR 2 /* 1: the BASIS form and its shared block; 2: the COMPACT form */
+#define WDR_CAL_VERSION_MINOR 3 /* 1: the BASIS form and its shared block; 2: the COMPACT form;
+                                  3: the SHIFTED form */
 #define WDR_CAL_HEADER_SIZE 64u
 #define WDR_CAL_MAX_COEFFS 8u
 #define WDR_CAL_MAX_WIDTH 4096u
@@ -23,6 +24,12 @@
 #define WDR_CAL_COMPACT_Q_MAX 32767
 /* COMPACT: floats after the shared points: 4 coefficient scales, then 4 offsets */
 #define WDR_CAL_COMPACT_EXTRA 8u
+/* SHIFTED: the pixel byte of a zero shift, the bit that marks a flagged pixel, and the codes the
+ * per-code points reach below 0 */
+#define WDR_CAL_SHIFT_ZERO 64u
+#define WDR_CAL_SHIFT_FLAGGED 0x80u
+#define WDR_CAL_SHIFT_PAD 64u
+#define WDR_CAL_SHIFT_SAT_BITS 13u /* a 12-bit ADC's shifted codes, padded to 2^13 points */
 
 /* Per-pixel formula. Never renumber: tables in flash use these ids. */
 enum wdr_cal_form {
@@ -38,6 +45,10 @@ enum wdr_cal_form {
                               version 2): c_k = offset_k + q_k * scale_k, 4 f32 scales and 4 f32
                               offsets after the shared points; 9 bytes per pixel, a fixed-point
                               kernel on the controller */
+    WDR_FORM_SHIFTED = 5,  /* COMPACT whose flag byte also carries a per-pixel code shift (minor
+                              version 3): a good pixel's byte b < 128 reads its code as
+                              u = min(y + b, raw_max + 64) - 64, a flagged pixel's byte is
+                              128 | flags; 9 bytes per pixel */
     WDR_FORM_COUNT
 };
 
@@ -105,6 +116,9 @@ typedef struct wdr_cal_view {
      * (computed per pixel) */
     const uint32_t *code_q;
     uint32_t code_shift;
+    /* SHIFTED: 13 when the per-code points run on to 2^13 codes (copies of the last), so that one
+     * USAT clamps a pixel's shifted code; else 0 (a compare) */
+    uint32_t code_sat;
 } wdr_cal_view;
 
 /* Bytes of one row block and of a whole table (header included); wdr_cal_row_stride is the
@@ -159,6 +173,26 @@ const uint32_t *wdr_cal_row_compact(const wdr_cal_view *v, int row);
 const uint8_t *wdr_cal_row_flags(const wdr_cal_view *v, int row);
 const float *wdr_cal_compact_scales(const wdr_cal_view *v);
 
+/* COMPACT and SHIFTED share the layout (int16 coefficients, shared block with scales, offsets). */
+static inline int wdr_cal_form_compact(uint16_t form)
+{
+    return form == WDR_FORM_COMPACT || form == WDR_FORM_SHIFTED;
+}
+
+/* The bits of a pixel byte that say "flagged": a SHIFTED byte below 128 is a shift, not a flag. */
+static inline uint8_t wdr_cal_flag_mask(uint16_t form)
+{
+    return form == WDR_FORM_SHIFTED ? (uint8_t)WDR_CAL_SHIFT_FLAGGED : (uint8_t)0xFFu;
+}
+
+/* A pixel's flags from its byte in the row (wdr_cal_row_flags), whatever the form. */
+static inline uint8_t wdr_cal_pixel_flags(uint16_t form, uint8_t b)
+{
+    if (form != WDR_FORM_SHIFTED)
+        return b;
+    return (b & WDR_CAL_SHIFT_FLAGGED) ? (uint8_t)(b & 0x7Fu) : (uint8_t)0u;
+}
+
 /* Serialise: header h (magic, version, payload_len and CRCs are filled here) and, for each row,
  * coefficients coeffs[(k * height + row) * width + col] and flags[row * width + col], into out,
  * which must hold wdr_cal_size(...) bytes. Host side; the firmware only parses. */
@@ -170,7 +204,8 @@ void wdr_cal_encode_basis(wdr_cal_header *h, const float *shared, const float *c
 /* The same for a COMPACT table (h->shared_points set; form and n_coeffs are filled here): shared
  * as for BASIS with 4 functions, coeffs as for wdr_cal_encode; each coefficient k is quantised to
  * int16 q = round((c - offset_k) / scale_k), offset_k the middle of c_k's range over the table and
- * scale_k its half-range / 32767 (1 if all equal);
+ * scale_k its half-range / 32767 (1 if all equal). h->form SHIFTED is kept (else COMPACT is
+ * set), and flags[] then holds its pixel bytes (shift + 64, or 128 | flags);
  * out holds wdr_cal_size_compact(...) bytes. */
 void wdr_cal_encode_compact(wdr_cal_header *h, const float *shared, const float *coeffs, const uint8_t *flags,
                             uint8_t *out);

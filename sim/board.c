@@ -129,6 +129,7 @@ static const field board_fields[] = {
     FD("adc", "offset_V", adc_offset_v, -5, 5),
     FD("adc", "gain", adc_gain, 0.01, 100),
     FD("readout", "row_time_s", row_time_s, 0, 0.01), /* the protocol's limit (SPEC.md, field limits) */
+    FD("controller", "table_bus_MBps", table_bus_mbps, 0, 1e6),
 };
 #define N_FIELDS (sizeof board_fields / sizeof board_fields[0])
 

@@ -56,6 +56,10 @@ typedef struct wdr_board {
 
     /* readout */
     double row_time_s;
+
+    /* the controller's memory bus the calibration table is read over, MB/s (10^6 B/s) of
+     * sustained reads; 0: not given (wdrctl study then checks no bandwidth) */
+    double table_bus_mbps;
 } wdr_board;
 
 /* Fill b with the documented defaults (0.35 um process, 640x480, 12-bit DAC and ADC). */

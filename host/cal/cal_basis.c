@@ -25,6 +25,18 @@
 #define SAMPLE_PIXELS 512  /* pixels the basis is learnt from (evenly spread over the array) */
 #define PCA_ITERATIONS 60
 #define ALS_ROUNDS 4
+/* SHIFTED: more rounds, each also moving weight to the currents where the pixels' spread is worst
+ * (Lawson's minimax reweighting per current): the judged figure is the worst current, not the
+ * mean, and four functions cannot bring every current down together (TR, seed 11, 64x48: worst
+ * 1.44 % -> 1.09 % on the learner's samples). */
+#define MINIMAX_ROUNDS 8 /* 14 rounds: 1.23 % against 1.11 % (TR, seed 11, anchor 6): it overfits */
+/* The anchor sample (of the 64 log-spaced currents, 0 the dimmest) for the code shifts: near the
+ * dark end, where Drago's and Tumblin-Rushmeier's maps bend and each pixel's dark level puts the
+ * bend at its own code. Worst TR error (seed 11, 64x48, through the kernel) by anchor: 3 1.21 %,
+ * 6 1.11 %, 10 0.97 %, 12 0.98 %, 14 0.97 %, 20 0.98 %, 30 1.83 %; no shift 2.14 %. */
+#define SHIFT_ANCHOR 12
+#define SHIFT_SEARCH 2 /* the final fit tries the anchor's shift +-2 (+-1: 1.01 %, +-4: 1.00 %) */
+#define SHIFT_MAX 63
 #define CG_STEPS 80
 #define DENSE_CODES 256     /* the table's fit: samples evenly spaced in code, 2 grid steps apart at n = 8 */
 /* Relative to the mean diagonal of the normal equations. The diagonal is dominated by the ends,
@@ -33,6 +45,8 @@
 #define SMOOTH_PENALTY 1e-6
 #define RANGE_PAD 0.02      /* of the code span, on each side of the sampled codes */
 #define MIN_LOG_SLOPE 1.0   /* codes per unit of ln x: floor of the weights' slope */
+
+static double kernel_basis(const wdr_basis *b, double y, int k);
 
 typedef struct learner {
     const wdr_cal_result *res;
@@ -43,6 +57,12 @@ typedef struct learner {
     double *c;               /* m x n coefficients */
     int d;                   /* samples per pixel of the table's fit (dense_currents) */
     double *dy, *dt, *dw;    /* m x d: codes, targets, weights */
+    double *dl;              /* d: ln x of the dense samples (the minimax weights follow ln x) */
+    double *w0, *dw0;        /* the weights before the minimax factors (m x 64, m x d) */
+    double *shift;           /* m: SHIFTED, each sample pixel's code shift; else NULL */
+    double anchor_code;
+    int minimax;             /* SHIFTED: the minimax reweighting (with or without shifts) */
+    double u[WDR_BASIS_SAMPLES];
 } learner;
 
 /* Position of code y on the grid: point index j < points - 1 and fraction f, clamped as the
@@ -144,14 +164,20 @@ static int dense_samples(learner *L, const long *idx)
     if (ok) {
         dense_currents(&L->res->nominal, xs, dens, d);
         for (int p = 0; p < L->m; p++) {
-            double *w = L->dw + (long)p * d;
-            wdr_cal_map_samples_at(L->res, idx[p], xs, d, L->dy + (long)p * d, L->dt + (long)p * d, w);
-            for (int k = 0; k < d; k++)
+            double *w = L->dw + (long)p * d, *y = L->dy + (long)p * d;
+            wdr_cal_map_samples_at(L->res, idx[p], xs, d, y, L->dt + (long)p * d, w);
+            for (int k = 0; k < d; k++) {
                 w[k] *= dens[k];
+                if (L->shift)
+                    y[k] = fmin(y[k] + L->shift[p], L->res->cfg.raw_max);
+            }
         }
     }
+    L->dl = ok ? malloc(sizeof(double) * d) : NULL;
+    for (int k = 0; ok && L->dl && k < d; k++)
+        L->dl[k] = log(xs[k]);
     free(xs), free(dens);
-    return ok;
+    return ok && L->dl;
 }
 
 /* ---- start: mean and principal components of the weighted maps on the grid ---- */
@@ -216,7 +242,7 @@ static int start_basis(learner *L, const long *idx)
             wt[j] = grid_weight(L->res, L->lo + j * L->step);
         for (int p = 0; p < L->m; p++)
             for (int j = 0; j < K; j++) {
-                double y = wdr_cal_map(L->res, idx[p], L->lo + j * L->step);
+                double y = wdr_cal_map(L->res, idx[p], L->lo + j * L->step - (L->shift ? L->shift[p] : 0));
                 g[(long)p * K + j] = isfinite(y) ? y : 0;
                 mean[j] += g[(long)p * K + j] / L->m;
             }
@@ -371,14 +397,75 @@ static int refit_table(learner *L, double *work)
     return 1;
 }
 
+/* ---- minimax weights (SHIFTED) ---- */
+
+/* The factor at ln x, linear between the 64 log-spaced currents. */
+static double weight_at(const learner *L, double lx)
+{
+    double lx0 = log(L->res->nominal.x_lo), lx1 = log(L->res->nominal.x_hi);
+    double t = (lx - lx0) / (lx1 - lx0) * (WDR_BASIS_SAMPLES - 1);
+    t = t < 0 ? 0 : t > WDR_BASIS_SAMPLES - 1 ? WDR_BASIS_SAMPLES - 1 : t;
+    int j = (int)t < WDR_BASIS_SAMPLES - 1 ? (int)t : WDR_BASIS_SAMPLES - 2;
+    return L->u[j] + (t - j) * (L->u[j + 1] - L->u[j]);
+}
+
+static void fit_pixels(learner *L)
+{
+    for (int p = 0; p < L->m; p++)
+        if (!fit_pixel(L, L->table, &L->s[p], L->c + (long)p * L->n))
+            memset(L->c + (long)p * L->n, 0, sizeof(double) * L->n); /* leaves the table's fit */
+}
+
+/* Lawson's step: each current's weight (squared) grows with its rms error over the pixels,
+ * measured with the original weights; mean 1, kept within 1e-3..1e3. */
+static void reweight(learner *L)
+{
+    double e2[WDR_BASIS_SAMPLES] = {0}, mean = 0;
+    for (int p = 0; p < L->m; p++)
+        for (int k = 0; k < WDR_BASIS_SAMPLES; k++) {
+            double v = 0;
+            for (int q = 0; q < L->n; q++)
+                v += L->c[(long)p * L->n + q] * table_at(L, L->table, L->s[p].y[k], q);
+            double e = (v - L->s[p].t[k]) * L->w0[(long)p * WDR_BASIS_SAMPLES + k];
+            e2[k] += e * e;
+        }
+    for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
+        mean += (L->u[k] *= sqrt(e2[k] / L->m)) / WDR_BASIS_SAMPLES;
+    for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
+        L->u[k] = mean > 0 ? fmin(fmax(L->u[k] / mean, 1e-3), 1e3) : 1;
+    for (int p = 0; p < L->m; p++)
+        for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
+            L->s[p].w[k] = L->w0[(long)p * WDR_BASIS_SAMPLES + k] * sqrt(L->u[k]);
+    for (int k = 0; k < L->d; k++) {
+        double f = sqrt(weight_at(L, L->dl[k]));
+        for (int p = 0; p < L->m; p++)
+            L->dw[(long)p * L->d + k] = L->dw0[(long)p * L->d + k] * f;
+    }
+}
+
+static int keep_weights(learner *L)
+{
+    L->w0 = malloc(sizeof(double) * (size_t)L->m * WDR_BASIS_SAMPLES);
+    L->dw0 = malloc(sizeof(double) * (size_t)L->m * L->d);
+    if (!L->w0 || !L->dw0)
+        return 0;
+    for (int p = 0; p < L->m; p++)
+        memcpy(L->w0 + (long)p * WDR_BASIS_SAMPLES, L->s[p].w, sizeof(double) * WDR_BASIS_SAMPLES);
+    memcpy(L->dw0, L->dw, sizeof(double) * (size_t)L->m * L->d);
+    return 1;
+}
+
 static int alternate(learner *L)
 {
     double *work = malloc(sizeof(double) * (4 + 2 * (size_t)L->n) * (size_t)L->points * L->n);
-    int ok = work != NULL;
-    for (int round = 0; ok && round < ALS_ROUNDS; round++) {
-        for (int p = 0; p < L->m; p++)
-            if (!fit_pixel(L, L->table, &L->s[p], L->c + (long)p * L->n))
-                memset(L->c + (long)p * L->n, 0, sizeof(double) * L->n); /* leaves the table's fit */
+    int ok = work != NULL && (!L->minimax || keep_weights(L));
+    int rounds = L->minimax ? MINIMAX_ROUNDS : ALS_ROUNDS;
+    for (int round = 0; ok && round < rounds; round++) {
+        fit_pixels(L);
+        if (L->minimax && round > 0) {
+            reweight(L);
+            fit_pixels(L);
+        }
         ok = refit_table(L, work);
     }
     free(work);
@@ -396,12 +483,33 @@ static int to_float_table(const learner *L, wdr_basis *b)
     for (long i = 0; i < len; i++)
         b->table[i] = fabs(L->table[i]) < 1e30 ? (float)L->table[i] : 0.0f;
     b->n = L->n, b->points = L->points, b->lo = L->lo, b->step = L->step;
+    b->shifted = L->shift != NULL, b->anchor_code = L->anchor_code, b->raw_max = L->res->cfg.raw_max;
+    for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
+        b->u[k] = sqrt(L->u[k]);
     return wdr_cal_shared_check(b->table, (uint16_t)b->n, (uint32_t)b->points) ? WDR_E_NUMERIC : WDR_OK;
 }
 
-int wdr_cal_basis_learn(const wdr_cal_result *res, int n, wdr_basis *b, char *err, int errlen)
+/* SHIFTED: the anchor code (the sample pixels' mean there) and each sample pixel's shift. */
+static int shift_samples(learner *L)
 {
-    learner L = {.res = res, .n = n, .points = (int)(WDR_CAL_MAX_SHARED_FLOATS / (unsigned)n)};
+    L->shift = malloc(sizeof(double) * (size_t)L->m);
+    if (!L->shift)
+        return 0;
+    wdr_basis b = {.shifted = 1, .raw_max = L->res->cfg.raw_max};
+    for (int p = 0; p < L->m; p++)
+        b.anchor_code += L->s[p].y[SHIFT_ANCHOR] / L->m;
+    L->anchor_code = b.anchor_code;
+    for (int p = 0; p < L->m; p++)
+        L->shift[p] = wdr_cal_basis_shift(&b, &L->s[p]);
+    return 1;
+}
+
+/* shifts: per-pixel code shifts; minimax: the minimax reweighting. */
+static int learn_one(const wdr_cal_result *res, int n, int shifts, int minimax, wdr_basis *b, char *err, int errlen)
+{
+    learner L = {.res = res, .n = n, .points = (int)(WDR_CAL_MAX_SHARED_FLOATS / (unsigned)n), .minimax = minimax};
+    for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
+        L.u[k] = 1;
     long idx[SAMPLE_PIXELS];
     memset(b, 0, sizeof *b);
     L.m = pick_pixels(&L, idx);
@@ -415,6 +523,8 @@ int wdr_cal_basis_learn(const wdr_cal_result *res, int n, wdr_basis *b, char *er
     int rc = L.s && L.c && L.table ? WDR_OK : WDR_E_NOMEM;
     for (int p = 0; !rc && p < L.m; p++)
         wdr_cal_map_samples(res, idx[p], &L.s[p]);
+    if (!rc && shifts && !shift_samples(&L))
+        rc = WDR_E_NOMEM;
     if (!rc && !code_range(&L)) {
         snprintf(err, (size_t)errlen, "shared basis: the pixels' codes span no range");
         rc = WDR_E_NUMERIC;
@@ -432,9 +542,59 @@ int wdr_cal_basis_learn(const wdr_cal_result *res, int n, wdr_basis *b, char *er
     if (rc == WDR_E_NOMEM)
         snprintf(err, (size_t)errlen, "shared basis: out of memory");
     free(L.s), free(L.c), free(L.table), free(L.dy), free(L.dt), free(L.dw);
+    free(L.dl), free(L.w0), free(L.dw0), free(L.shift);
     if (rc)
         wdr_cal_basis_free(b);
     return rc;
+}
+
+/* The learner's judgement of a finished basis, as the table will be fitted (wdr_cal_basis_shift,
+ * wdr_cal_basis_coeffs): the worst over the 64 log-spaced currents of the rms contrast residual
+ * over the sample pixels (infinite when a fit fails). */
+static double basis_worst(const wdr_cal_result *res, const wdr_basis *b)
+{
+    learner L = {.res = res};
+    long idx[SAMPLE_PIXELS];
+    int m = pick_pixels(&L, idx);
+    double e2[WDR_BASIS_SAMPLES] = {0}, worst = 0;
+    for (int p = 0; p < m; p++) {
+        wdr_map_samples s;
+        double c[WDR_CAL_MAX_COEFFS];
+        wdr_cal_map_samples(res, idx[p], &s);
+        wdr_cal_basis_shift(b, &s);
+        if (!wdr_cal_basis_coeffs(b, &s, c))
+            return INFINITY;
+        for (int k = 0; k < WDR_BASIS_SAMPLES; k++) {
+            double v = 0;
+            for (int q = 0; q < b->n; q++)
+                v += c[q] * kernel_basis(b, s.y[k], q);
+            e2[k] += (v - s.t[k]) * (v - s.t[k]) * s.w[k] * s.w[k];
+        }
+    }
+    for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
+        worst = fmax(worst, e2[k]);
+    return worst;
+}
+
+/* SHIFTED: with shifts and without (all pixels shift 0), both minimax; the better on the
+ * learner's judgement. The operators whose maps do not bend lose with shifts (Reinhard, seed 11:
+ * 1.32 % with, 0.6 % without), those that bend gain (Tumblin-Rushmeier 2.14 % -> 0.98 %). */
+int wdr_cal_basis_learn(const wdr_cal_result *res, int n, int shifted, wdr_basis *b, char *err, int errlen)
+{
+    if (!shifted)
+        return learn_one(res, n, 0, 0, b, err, errlen);
+    wdr_basis plain;
+    int rc = learn_one(res, n, 1, 1, b, err, errlen);
+    if (rc)
+        return rc;
+    if (learn_one(res, n, 0, 1, &plain, err, errlen))
+        return WDR_OK; /* the shifted one stands */
+    if (basis_worst(res, &plain) < basis_worst(res, b)) {
+        wdr_cal_basis_free(b);
+        *b = plain;
+    } else
+        wdr_cal_basis_free(&plain);
+    return WDR_OK;
 }
 
 void wdr_cal_basis_free(wdr_basis *b)
@@ -465,10 +625,63 @@ int wdr_cal_basis_coeffs(const wdr_basis *b, const wdr_map_samples *s, double *c
         for (int q = 0; q < b->n; q++)
             a[k * b->n + q] = kernel_basis(b, s->y[k], q);
     }
-    if (wdr_lsq_solve(a, t, s->w, WDR_BASIS_SAMPLES, b->n, c, &rcond))
+    double w[WDR_BASIS_SAMPLES];
+    for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
+        w[k] = s->w[k] * b->u[k];
+    if (wdr_lsq_solve(a, t, w, WDR_BASIS_SAMPLES, b->n, c, &rcond))
         return 0;
     for (int q = 0; q < b->n; q++)
         if (!(fabs(c[q]) < 1e30))
             return 0;
     return 1;
+}
+
+static int clamp_shift(double d)
+{
+    return (int)fmin(fmax(d, -(double)SHIFT_MAX - 1), SHIFT_MAX);
+}
+
+static void move_samples(const wdr_basis *b, const wdr_map_samples *s, int shift, wdr_map_samples *out)
+{
+    *out = *s;
+    for (int k = 0; k < WDR_BASIS_SAMPLES; k++)
+        out->y[k] = fmin(s->y[k] + shift, b->raw_max);
+}
+
+/* Weighted squared residual of the pixel's fit at one shift (infinite when the fit fails). */
+static double shift_cost(const wdr_basis *b, const wdr_map_samples *s)
+{
+    double c[WDR_CAL_MAX_COEFFS], e2 = 0;
+    if (!wdr_cal_basis_coeffs(b, s, c))
+        return INFINITY;
+    for (int k = 0; k < WDR_BASIS_SAMPLES; k++) {
+        double v = 0;
+        for (int q = 0; q < b->n; q++)
+            v += c[q] * kernel_basis(b, s->y[k], q);
+        double e = (v - s->t[k]) * s->w[k] * b->u[k];
+        e2 += e * e;
+    }
+    return e2;
+}
+
+int wdr_cal_basis_shift(const wdr_basis *b, wdr_map_samples *s)
+{
+    if (!b->shifted || !isfinite(s->y[SHIFT_ANCHOR]))
+        return 0;
+    int best = clamp_shift(round(b->anchor_code - s->y[SHIFT_ANCHOR]));
+    if (b->table) { /* the learnt table: the shift that fits best near the anchor's */
+        int mid = best, r = SHIFT_SEARCH;
+        double cost = INFINITY;
+        for (int d = clamp_shift(mid - r); d <= clamp_shift(mid + r); d++) {
+            wdr_map_samples t;
+            move_samples(b, s, d, &t);
+            double e = shift_cost(b, &t);
+            if (e < cost)
+                cost = e, best = d;
+        }
+    }
+    wdr_map_samples t;
+    move_samples(b, s, best, &t);
+    *s = t;
+    return best;
 }

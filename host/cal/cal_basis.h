@@ -18,21 +18,32 @@ void wdr_cal_map_samples(const wdr_cal_result *res, long i, wdr_map_samples *s);
 void wdr_cal_map_samples_at(const wdr_cal_result *res, long i, const double *xs, int m, double *y, double *t,
                             double *w);
 
-/* The shared table: points x n float32, point-major, over raw codes lo + j * step. */
+/* The shared table: points x n float32, point-major, over raw codes lo + j * step. A SHIFTED
+ * basis also moves each pixel's codes by a whole shift that lines its code at the anchor current
+ * up with the sample's mean there, and weighs each sample current by u[k] (a minimax fit). */
 typedef struct wdr_basis {
     int n, points;
     double lo, step;
     float *table;
+    int shifted;
+    double anchor_code, raw_max;
+    double u[WDR_BASIS_SAMPLES];
 } wdr_basis;
 
 /* Learn the basis from (a sample of) the array's good pixels: principal components of their
  * contrast-weighted maps, then alternating least squares (pixel coefficients, shared table) on
- * their samples. @retval WDR_OK, WDR_E_NOMEM, WDR_E_NUMERIC (err says why: too few good pixels,
- * no code range, a degenerate basis) */
-int wdr_cal_basis_learn(const wdr_cal_result *res, int n, wdr_basis *b, char *err, int errlen);
+ * their samples; shifted: per-pixel code shifts and the minimax weights (the SHIFTED form).
+ * @retval WDR_OK, WDR_E_NOMEM, WDR_E_NUMERIC (err says why: too few good pixels, no code range,
+ * a degenerate basis) */
+int wdr_cal_basis_learn(const wdr_cal_result *res, int n, int shifted, wdr_basis *b, char *err, int errlen);
 void wdr_cal_basis_free(wdr_basis *b);
 
-/* Pixel coefficients over the float32 table, as the kernel evaluates it. 1 when finite. */
+/* A SHIFTED basis: the pixel's code shift (-64..63) from its samples, and its samples moved by it
+ * as the kernel moves its codes (min(y + shift, raw_max)); 0 and unchanged otherwise. */
+int wdr_cal_basis_shift(const wdr_basis *b, wdr_map_samples *s);
+
+/* Pixel coefficients over the float32 table, as the kernel evaluates it (samples already
+ * shifted). 1 when finite. */
 int wdr_cal_basis_coeffs(const wdr_basis *b, const wdr_map_samples *s, double *c);
 
 #endif

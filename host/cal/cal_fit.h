@@ -165,13 +165,6 @@ double wdr_cal_map(const wdr_cal_result *res, long i, double y);
 int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int operator_id, uint8_t **out,
                         size_t *out_len, char *err, int errlen);
 
-/* The table form for a model and the ramp's operator when none is asked for (wdrctl calibrate):
- * for the N-current spline the compact form (9 B/px, the controller's fixed-point kernel) where it
- * keeps the analog worst contrast error <= 1 % (bench_target: 0.24-0.73 %), basis-8 for Drago and
- * Tumblin-Rushmeier (1.3 and 2.2 % with four shared functions: their dark-end bends need eight);
- * other models keep wdr_cal_config_defaults' form. */
-void wdr_cal_default_form(wdr_cal_config *cfg, int operator_id);
-
 #define WDR_LSQ_PARAMS 5
 
 /* Monotone interpolation helpers (exposed for tests). */

@@ -51,7 +51,7 @@ int wdr_fpn_recover(const wdr_cal_result *res, const wdr_cal_view *tab, int path
     }
     for (long i = 0; i < np; i++) {
         int left_out = (flags && flags[i]) ||
-                       (corr && tab->payload && wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width]);
+                       (corr && tab->payload && wdr_cal_pixel_flags(tab->h.form, wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width]));
         x_hat[i] = left_out ? NAN : recovered(res, path, i, frame[i], corr ? corr[i] : 0);
     }
     free(corr);
@@ -366,7 +366,7 @@ int wdr_fpn_frame(const wdr_cal_result *res, const wdr_cal_view *tab, int path, 
         if (rel_err)
             rel_err[i] = NAN;
         if ((flags && flags[i]) ||
-            (corr && tab->payload && wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width])) {
+            (corr && tab->payload && wdr_cal_pixel_flags(tab->h.form, wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width]))) {
             out->excluded++;
             continue;
         }

@@ -166,20 +166,24 @@ static int poly_coeffs(const wdr_cal_result *res, long i, int nc, double *c)
 static void identity_coeffs(const wdr_cal_result *res, int form, int nc, double *c)
 {
     memset(c, 0, sizeof(double) * (size_t)nc);
-    if (form == WDR_FORM_MOEBIUS || form == WDR_FORM_BASIS || form == WDR_FORM_COMPACT) {
+    if (form == WDR_FORM_MOEBIUS || form == WDR_FORM_BASIS || wdr_cal_form_compact((uint16_t)form)) {
         c[0] = 1; /* BASIS, COMPACT: the first function is the array's mean map */
         return;
     }
     c[0] = c[1] = res->cfg.raw_max / 2; /* v = y with u = 2y/raw_max - 1 */
 }
 
-static int pixel_coeffs(const wdr_cal_result *res, const wdr_basis *basis, long i, int form, int nc, double *c)
+/* shift: SHIFTED, the pixel's code shift (else left 0). */
+static int pixel_coeffs(const wdr_cal_result *res, const wdr_basis *basis, long i, int form, int nc, double *c,
+                        int *shift)
 {
+    *shift = 0;
     if (res->flags[i])
         return 0;
-    if (form == WDR_FORM_BASIS || form == WDR_FORM_COMPACT) {
+    if (form == WDR_FORM_BASIS || wdr_cal_form_compact((uint16_t)form)) {
         wdr_map_samples s;
         wdr_cal_map_samples(res, i, &s);
+        *shift = wdr_cal_basis_shift(basis, &s);
         return wdr_cal_basis_coeffs(basis, &s, c);
     }
     if (form == WDR_FORM_MOEBIUS)
@@ -196,7 +200,7 @@ static int pixel_coeffs(const wdr_cal_result *res, const wdr_basis *basis, long 
 static int check_form(const wdr_cal_result *res, char *err, int errlen)
 {
     const wdr_cal_config *cfg = &res->cfg;
-    int nc = cfg->form == WDR_FORM_MOEBIUS ? 3 : cfg->form == WDR_FORM_COMPACT ? 4 : cfg->n_coeffs;
+    int nc = cfg->form == WDR_FORM_MOEBIUS ? 3 : wdr_cal_form_compact((uint16_t)cfg->form) ? 4 : cfg->n_coeffs;
     if (!wdr_cal_form_coeffs_ok((uint16_t)cfg->form, (uint16_t)nc) || cfg->form == WDR_FORM_IDENTITY) {
         snprintf(err, (size_t)errlen, "table form %d with %d coefficients is not supported", cfg->form, nc);
         return WDR_E_INVAL;
@@ -224,16 +228,17 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     if (rc)
         return rc;
     const wdr_cal_config *cfg = &res->cfg;
-    int form = cfg->form, nc = form == WDR_FORM_MOEBIUS ? 3 : form == WDR_FORM_COMPACT ? 4 : cfg->n_coeffs;
-    int shared = form == WDR_FORM_BASIS || form == WDR_FORM_COMPACT;
+    int form = cfg->form, compact = wdr_cal_form_compact((uint16_t)form);
+    int nc = form == WDR_FORM_MOEBIUS ? 3 : compact ? 4 : cfg->n_coeffs;
+    int shared = form == WDR_FORM_BASIS || compact;
     long np = (long)res->width * res->height;
     wdr_basis basis = {0};
-    if (shared && (rc = wdr_cal_basis_learn(res, nc, &basis, err, errlen)))
+    if (shared && (rc = wdr_cal_basis_learn(res, nc, form == WDR_FORM_SHIFTED, &basis, err, errlen)))
         return rc;
     size_t len = form == WDR_FORM_BASIS
                      ? wdr_cal_size_basis((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc,
                                           (uint32_t)basis.points)
-                 : form == WDR_FORM_COMPACT
+                 : compact
                      ? wdr_cal_size_compact((uint16_t)res->width, (uint16_t)res->height, (uint32_t)basis.points)
                      : wdr_cal_size((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc);
     float *coeffs = malloc(sizeof(float) * (size_t)nc * (size_t)np);
@@ -247,12 +252,16 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     uint32_t bad = 0;
     for (long i = 0; i < np; i++) {
         double c[WDR_CAL_MAX_COEFFS];
+        int shift;
         flags[i] = res->flags[i];
-        if (!pixel_coeffs(res, &basis, i, form, nc, c)) {
+        if (!pixel_coeffs(res, &basis, i, form, nc, c, &shift)) {
             identity_coeffs(res, form, nc, c);
             flags[i] |= flags[i] ? 0 : WDR_PIX_UNFIT;
         }
         bad += flags[i] != 0;
+        if (form == WDR_FORM_SHIFTED) /* the pixel byte: 128 | flags, or the shift + 64 */
+            flags[i] = flags[i] ? (uint8_t)(WDR_CAL_SHIFT_FLAGGED | flags[i])
+                                : (uint8_t)(shift + (int)WDR_CAL_SHIFT_ZERO);
         for (int k = 0; k < nc; k++)
             coeffs[(long)k * np + i] = (float)c[k];
     }
@@ -264,7 +273,7 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     if (shared) {
         h.in_scale = (float)(1 / basis.step), h.in_offset = (float)(-basis.lo / basis.step); /* as kernel_basis */
         h.shared_points = (uint32_t)basis.points;
-        if (form == WDR_FORM_COMPACT) /* the same fit, coefficients quantised to int16 by the encoder */
+        if (compact) /* the same fit, coefficients quantised to int16 by the encoder */
             wdr_cal_encode_compact(&h, basis.table, coeffs, flags, buf);
         else
             wdr_cal_encode_basis(&h, basis.table, coeffs, flags, buf);
@@ -276,12 +285,4 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
     *out = buf;
     *out_len = len;
     return WDR_OK;
-}
-
-void wdr_cal_default_form(wdr_cal_config *cfg, int operator_id)
-{
-    if (cfg->model != WDR_MODEL_SPLINE || operator_id == WDR_OP_DRAGO || operator_id == WDR_OP_TUMBLIN_RUSHMEIER)
-        return;
-    cfg->form = WDR_FORM_COMPACT;
-    cfg->n_coeffs = WDR_CAL_COMPACT_COEFFS;
 }

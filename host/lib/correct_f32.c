@@ -89,25 +89,27 @@ static void compact_f32(const wdr_cal_view *cal, int row, const float *raw, floa
     const float unit = 1.0f / (float)(1u << shift), m = (float)cal->h.out_max;
     float g[WDR_CAL_COMPACT_COEFFS];
     wdr_compact_gains(cal, shift, g);
+    const uint8_t *b = cal->h.form == WDR_FORM_SHIFTED ? wdr_cal_row_flags(cal, row) : NULL;
     for (int i = 0; i < cal->h.width; i++) {
         float y = raw[i] > 0.0f ? raw[i] : 0.0f;
         y = y < (float)top ? y : (float)top;
         uint32_t y0 = (uint32_t)y, y1 = y0 < top ? y0 + 1u : top, p0[WDR_CAL_COMPACT_POINT_WORDS],
                  p1[WDR_CAL_COMPACT_POINT_WORDS];
-        wdr_compact_point(cal, g, shift, y0, p0);
-        wdr_compact_point(cal, g, shift, y1, p1);
+        /* SHIFTED: both codes read through the pixel's shift, as the controller reads them */
+        wdr_compact_point(cal, g, shift, b ? wdr_shifted_code(y0, b[i], top) : (int32_t)y0, p0);
+        wdr_compact_point(cal, g, shift, b ? wdr_shifted_code(y1, b[i], top) : (int32_t)y1, p1);
         float a0 = compact_exact(c + 2 * i, p0, half, unit), a1 = compact_exact(c + 2 * i, p1, half, unit);
         out[i] = wdr_to_output(a0 + (y - (float)y0) * (a1 - a0), 1.0f, m);
     }
 }
 
-static void patch_f32(const uint8_t *f, int w, float *out)
+static void patch_f32(const uint8_t *f, int w, uint8_t mask, float *out)
 {
     for (int s = 0; s < w; s++) {
-        if (!f[s])
+        if (!(f[s] & mask))
             continue;
         int e = s;
-        while (e < w && f[e])
+        while (e < w && (f[e] & mask))
             e++;
         float fill;
         if (s > 0 && e < w)
@@ -142,6 +144,6 @@ int wdr_correct_row_f32(const wdr_cal_view *cal, int row, const float *raw, floa
         return WDR_E_INVAL;
     kernel_for(cal)(cal, row, raw, out);
     if (cal->h.form != WDR_FORM_IDENTITY && cal->h.bad_pixels)
-        patch_f32(wdr_cal_row_flags(cal, row), cal->h.width, out);
+        patch_f32(wdr_cal_row_flags(cal, row), cal->h.width, wdr_cal_flag_mask(cal->h.form), out);
     return WDR_OK;
 }

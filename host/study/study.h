@@ -52,10 +52,13 @@ typedef struct study_result {
     double cal_s;                  /* (levels + dark) x frames x frame time */
     double table_bpp, table_bytes; /* per pixel; total at the board's size */
     double bandwidth_Bps;          /* table bytes read per second at the study's fps */
+    double bus_Bps;                /* the board's table bus (controller.table_bus_MBps), 0: not given */
+    int bus_feeds;                 /* bandwidth within the bus (or no bus given): else --target skips it */
     /* costs: measured here */
     double fit_s_per_mp;  /* fit + table build per megapixel (+ the basis's fixed learning) */
     double correct_ns_px; /* float32 correction kernel, per pixel */
-    double m7_instr_px;   /* NAN: no Cortex-M7 bench in this tree */
+    double m7_instr_px;   /* Cortex-M7 instructions per pixel, correction alone (study_m7.c, measured) */
+    double m7_row_px;     /* the same for the whole row path (correction, framing, CRC) */
     /* what the point used */
     double adc_lo_v, adc_hi_v, dac_lo_v, dac_hi_v;
     int levels_used;
@@ -72,6 +75,8 @@ typedef struct study {
     int n;
     study_point *pts;  /* malloc'd, n */
     study_result *res; /* malloc'd, n */
+    int *index;        /* a shard: each point's index in the full study (malloc'd, n); else NULL */
+    int full_n;        /* a shard: the full study's point count */
 } study;
 
 /* ---- study_space.c: knobs as lists and ranges ---- */
@@ -103,11 +108,33 @@ void study_frame_time(const struct wdr_board *b, int adc_bits, double t_ramp_s, 
 /* Calibration time on a board: (levels + dark) x frames x frame time. */
 double study_cal_time(const study_result *r, int levels, int frames);
 
+/* ---- study_m7.c: what bench_target measured on the Cortex-M7 ---- */
+typedef struct study_m7_count {
+    int form, n_coeffs;
+    double corr_px, row_px; /* instructions per pixel: correction alone, row path */
+} study_m7_count;
+const study_m7_count *study_m7_counts(int *n);
+/* The counts of a form with n_coeffs coefficients (NAN both when bench_target does not run it). */
+void study_m7_for(int form, int n_coeffs, double *corr_px, double *row_px);
+
 /* ---- study_run.c: every point, in parallel ---- */
 
 /* Evaluate every point on s->jobs worker processes, printing progress when show_progress.
  * @return a sysexits code */
 int study_run(study *s, int show_progress, double *wall_s);
+
+/* ---- study_shard.c: studies across machines ---- */
+
+/* "K/N" of --shard. @return a sysexits code, the failure printed */
+int study_shard_parse(const char *text, int *k, int *n);
+/* Keep shard K of N of the expanded study: points K-1, K-1+N, ... (s->index must hold s->n). */
+void study_shard_select(study *s, int k, int n);
+/* The evaluated shard into path. @return a sysexits code */
+int study_shard_write(const study *s, int k, int n, const char *path, double wall_s);
+/* All N shards back into s (pts, res malloc'd; board copied into board), in the full study's
+ * order; a missing shard is refused by its number, as are a shard given twice, another study's
+ * shard and another build's. wall_s: the shards' walls summed. @return a sysexits code */
+int study_shard_merge(char **paths, int n_paths, study *s, char *board, int board_len, double *wall_s);
 
 /* ---- study_pareto.c: fronts and the target ---- */
 
@@ -119,6 +146,7 @@ enum study_cost {
     STUDY_COST_BANDWIDTH,
     STUDY_COST_CORRECT,
     STUDY_COST_FIT,
+    STUDY_COST_M7, /* correction instructions per pixel on the Cortex-M7 (NAN where not measured) */
     STUDY_COST_COUNT
 };
 const char *study_acc_name(int a);
@@ -130,7 +158,8 @@ double study_acc_value(const study_result *r, int a);
 double study_cost_value(const study_result *r, int c);
 /* Indices of the Pareto front of accuracy a against cost c, cheapest first. @return count */
 int study_front(const study *s, int a, int c, int *idx);
-/* Index of the cheapest ok point with accuracy figure a <= target_pct by cost c; -1 if none. */
+/* Index of the cheapest ok point with accuracy figure a <= target_pct by cost c, among those the
+ * board's bus can feed and whose cost c is known; -1 if none. */
 int study_cheapest(const study *s, int a, int c, double target_pct);
 
 /* ---- study_report.c: table, fronts, JSON, plots ---- */
@@ -139,15 +168,19 @@ void study_print_table(const study *s);
 void study_print_fronts(const study *s);
 /* The cheapest points meeting target_pct, by the total error and by FPN alone (what calibration
  * reaches once the image's temporal noise is averaged away), or why none does (the limiting knob). */
-void study_print_target(const study *s, double target_pct);
+void study_print_target(const study *s, double target, int acc);
+/* A target: a value and its accuracy figure (STUDY_ACC_TOTAL for "1%", STUDY_ACC_DISPLAY for
+ * "0.5lev", the worst display error in 8-bit levels). */
 /* What each knob buys: the best total and FPN-alone error at each value of every swept knob. */
 void study_print_knobs(const study *s);
 /* study.json in outdir (and on stdout with to_stdout), with the answer for each of n targets.
  * @return a sysexits code */
-int study_write_json(const study *s, const char *outdir, const double *targets, int n, double wall_s, int to_stdout);
-/* study_vs_image_time.png, study_vs_cal_time.png, study_vs_table_bytes.png, each with a line per
- * target. @return a sysexits code */
-int study_plot(const study *s, const char *outdir, const double *targets, int n);
+int study_write_json(const study *s, const char *outdir, const double *targets, const int *accs, int n, double wall_s,
+                     int to_stdout);
+/* study_vs_image_time.png, study_vs_cal_time.png, study_vs_table_bytes.png,
+ * study_vs_m7_instructions.png, study_vs_table_bandwidth.png, each with a line per contrast target.
+ * @return a sysexits code */
+int study_plot(const study *s, const char *outdir, const double *targets, const int *accs, int n);
 /* A point's knobs in one line (for tables and messages). */
 void study_point_label(const study_point *p, char *out, int outlen);
 

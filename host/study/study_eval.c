@@ -119,7 +119,7 @@ static int round_half(float *v)
 /* Coefficients at the point's precision, rounded in the parsed table the kernel reads. */
 static int round_coefficients(calib *c, int bits)
 {
-    if (bits >= 32)
+    if (bits >= 32 || wdr_cal_form_compact(c->tab.h.form)) /* COMPACT, SHIFTED: int16 already */
         return 1;
     for (int row = 0; row < c->tab.h.height; row++)
         for (int k = 0; k < c->tab.h.n_coeffs; k++) {
@@ -137,20 +137,21 @@ static int round_coefficients(calib *c, int bits)
  * few pixels of a study-sized array. */
 static double basis_learn_time(const calib *c)
 {
-    static double learnt_s[WDR_CAL_MAX_COEFFS + 1];
-    int n = c->cfg.n_coeffs;
-    if (c->cfg.form != WDR_FORM_BASIS || n < 1 || n > (int)WDR_CAL_MAX_COEFFS)
+    static double learnt_s[2][WDR_CAL_MAX_COEFFS + 1]; /* [SHIFTED: it learns twice][n] */
+    int n = c->cfg.n_coeffs, shifted = c->cfg.form == WDR_FORM_SHIFTED;
+    int shared = c->cfg.form == WDR_FORM_BASIS || wdr_cal_form_compact((uint16_t)c->cfg.form);
+    if (!shared || n < 1 || n > (int)WDR_CAL_MAX_COEFFS)
         return 0;
-    if (learnt_s[n] > 0)
-        return learnt_s[n];
+    if (learnt_s[shifted][n] > 0)
+        return learnt_s[shifted][n];
     char err[160];
     wdr_basis b;
     double t0 = cpu_s();
-    int rc = wdr_cal_basis_learn(&c->res, n, &b, err, sizeof err);
-    learnt_s[n] = cpu_s() - t0;
+    int rc = wdr_cal_basis_learn(&c->res, n, shifted, &b, err, sizeof err);
+    learnt_s[shifted][n] = cpu_s() - t0;
     if (!rc)
         wdr_cal_basis_free(&b);
-    return learnt_s[n];
+    return learnt_s[shifted][n];
 }
 
 static int calibrate(const study *s, const study_point *p, study_chip *chip, calib *c, study_result *r)
@@ -162,6 +163,8 @@ static int calibrate(const study *s, const study_point *p, study_chip *chip, cal
     c->cfg.form = p->form;
     if (p->n_coeffs)
         c->cfg.n_coeffs = p->n_coeffs;
+    if (wdr_cal_form_compact((uint16_t)p->form))
+        c->cfg.n_coeffs = WDR_CAL_COMPACT_COEFFS;
     c->cfg.raw_max = (1u << p->adc_bits) - 1u;
     c->cfg.out_max = (uint16_t)c->cfg.raw_max;
     c->cfg.range_lo = s->range_lo, c->cfg.range_hi = s->range_hi;
@@ -387,12 +390,16 @@ static void table_costs(const study *s, const study_point *p, const study_chip *
     int n = c->tab.h.n_coeffs;
     uint32_t shared = wdr_cal_shared_bytes(&c->tab.h);
     double coeff_bytes = p->coeff_bits / 8.0;
+    if (wdr_cal_form_compact(c->tab.h.form))
+        coeff_bytes = 2; /* int16 coefficients */
     r->table_bpp = n * coeff_bytes + 1; /* coefficient planes and one flag byte per pixel */
     size_t header = wdr_cal_size(1, 1, 0) - wdr_cal_row_stride(1, 0);
     r->table_bytes = (double)header + shared + (double)full->width * full->height * r->table_bpp;
     r->bandwidth_Bps = r->table_bytes * s->fps;
+    r->bus_Bps = full->table_bus_mbps * 1e6;
+    r->bus_feeds = !(r->bus_Bps > 0) || r->bandwidth_Bps <= r->bus_Bps;
     r->correct_ns_px = correct_ns_per_pixel(chip, c);
-    r->m7_instr_px = NAN;
+    study_m7_for(c->tab.h.form, n, &r->m7_instr_px, &r->m7_row_px);
 }
 
 void study_eval_point(const study *s, const study_point *p, study_result *r)

@@ -6,12 +6,13 @@
 
 static const char *const acc_names[] = {"worst_total_pct", "worst_fpn_pct", "floor_pct", "display_levels"};
 static const char *const acc_units[] = {"%", "%", "%", "8-bit levels"};
-static const char *const cost_names[] = {"image_time_s",        "calibration_time_s",   "table_bytes_per_pixel",
-                                         "table_bandwidth_Bps", "correct_ns_per_pixel", "fit_s_per_megapixel"};
-static const char *const cost_units[] = {"s", "s", "B/pixel", "B/s", "ns/pixel", "s/Mpixel"};
+static const char *const cost_names[] = {"image_time_s",         "calibration_time_s",  "table_bytes_per_pixel",
+                                         "table_bandwidth_Bps",  "correct_ns_per_pixel", "fit_s_per_megapixel",
+                                         "m7_instructions_per_pixel"};
+static const char *const cost_units[] = {"s", "s", "B/pixel", "B/s", "ns/pixel", "s/Mpixel", "insn/pixel"};
 /* frame, calibration and bandwidth follow from the board; table bytes from the format (the
  * half-precision sizes modelled); the correction kernel and the fit are timed here */
-static const int cost_measured[] = {0, 0, 0, 0, 1, 1};
+static const int cost_measured[] = {0, 0, 0, 0, 1, 1, 1}; /* M7: measured by bench_target (study_m7.c) */
 
 const char *study_acc_name(int a)
 {
@@ -42,7 +43,8 @@ double study_acc_value(const study_result *r, int a)
 
 double study_cost_value(const study_result *r, int c)
 {
-    const double v[] = {r->image_s, r->cal_s, r->table_bpp, r->bandwidth_Bps, r->correct_ns_px, r->fit_s_per_mp};
+    const double v[] = {r->image_s,       r->cal_s,        r->table_bpp,  r->bandwidth_Bps,
+                        r->correct_ns_px, r->fit_s_per_mp, r->m7_instr_px};
     return v[c];
 }
 
@@ -81,9 +83,9 @@ int study_cheapest(const study *s, int a, int c, double target_pct)
     int best = -1;
     for (int i = 0; i < s->n; i++) {
         const study_result *r = &s->res[i];
-        if (!r->ok || !(study_acc_value(r, a) <= target_pct))
-            continue;
         double ci = study_cost_value(r, c);
+        if (!r->ok || !r->bus_feeds || !(study_acc_value(r, a) <= target_pct) || !isfinite(ci))
+            continue; /* a design the board's memory bus cannot feed at the frame rate is no answer */
         if (best < 0 || ci < study_cost_value(&s->res[best], c) ||
             (ci == study_cost_value(&s->res[best], c) && study_acc_value(r, a) < study_acc_value(&s->res[best], a)))
             best = i;

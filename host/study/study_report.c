@@ -19,7 +19,11 @@ static const char *model_name(int m)
 
 static const char *form_name(int f)
 {
-    return f == WDR_FORM_MOEBIUS ? "moebius" : f == WDR_FORM_BASIS ? "basis" : "poly";
+    return f == WDR_FORM_MOEBIUS   ? "moebius"
+           : f == WDR_FORM_BASIS   ? "basis"
+           : f == WDR_FORM_COMPACT ? "compact"
+           : f == WDR_FORM_SHIFTED ? "shifted"
+                                   : "poly";
 }
 
 static int point_coeffs(const study_point *p)
@@ -223,9 +227,9 @@ static void print_limit(const study *s, int a, double target)
     const study_point *p = &s->pts[b];
     char label[256];
     study_point_label(p, label, sizeof label);
-    printf("  none does; the most accurate is #%d %s at %.3g %% (total %.3g %%, FPN alone %.3g %%, temporal %.3g %%, "
+    printf("  none does; the most accurate is #%d %s at %.3g %s (total %.3g %%, FPN alone %.3g %%, temporal %.3g %%, "
            "quantisation floor %.3g %%, of which the ADC %.3g %%)\n",
-           b, label, study_acc_value(r, a), r->worst_total_pct, r->worst_fpn_pct, r->worst_temporal_pct, r->floor_pct,
+           b, label, study_acc_value(r, a), study_acc_unit(a), r->worst_total_pct, r->worst_fpn_pct, r->worst_temporal_pct, r->floor_pct,
            r->floor_adc_pct);
     if (a == STUDY_ACC_TOTAL && r->worst_temporal_pct > target)
         printf("  limiting knob: image-frames (%d): the image's temporal noise alone is %.3g %%, and it falls only "
@@ -236,8 +240,15 @@ static void print_limit(const study *s, int a, double target)
 
 static void print_cheapest(const study *s, int a, double target)
 {
-    printf("\ncheapest designs with %s <= %.3g %% over %.3g..%.3g A:\n", study_acc_name(a), target, s->range_lo,
-           s->range_hi);
+    int unfed = 0;
+    for (int i = 0; i < s->n; i++)
+        unfed += s->res[i].ok && !s->res[i].bus_feeds;
+    printf("\ncheapest designs with %s <= %.3g %s over %.3g..%.3g A", study_acc_name(a), target, study_acc_unit(a),
+           s->range_lo, s->range_hi);
+    if (unfed)
+        printf(" (%d points skipped: the board's table bus, %.4g MB/s, cannot feed them at %g frames/s)", unfed,
+               s->res[0].bus_Bps / 1e6, s->fps);
+    printf(":\n");
     int found = 0;
     for (int c = 0; c < STUDY_COST_COUNT; c++) {
         int i = study_cheapest(s, a, c, target);
@@ -254,8 +265,12 @@ static void print_cheapest(const study *s, int a, double target)
         print_limit(s, a, target);
 }
 
-void study_print_target(const study *s, double target)
+void study_print_target(const study *s, double target, int acc)
 {
+    if (acc == STUDY_ACC_DISPLAY) {
+        print_cheapest(s, STUDY_ACC_DISPLAY, target);
+        return;
+    }
     print_cheapest(s, STUDY_ACC_TOTAL, target);
     print_cheapest(s, STUDY_ACC_FPN, target);
 }
@@ -319,12 +334,17 @@ static cJSON *point_json(const study *s, int i)
     cJSON_AddNumberToObject(c, "readout_s", r->t_readout_s);
     cJSON_AddNumberToObject(c, "frame_time_s", r->frame_s);
     for (int q = 0; q < STUDY_COST_COUNT; q++)
-        cJSON_AddNumberToObject(c, study_cost_name(q), study_cost_value(r, q));
+        if (isfinite(study_cost_value(r, q)))
+            cJSON_AddNumberToObject(c, study_cost_name(q), study_cost_value(r, q));
+        else
+            cJSON_AddNullToObject(c, study_cost_name(q));
     cJSON_AddNumberToObject(c, "table_bytes", r->table_bytes);
-    if (isfinite(r->m7_instr_px))
-        cJSON_AddNumberToObject(c, "m7_instructions_per_pixel", r->m7_instr_px);
+    cJSON_AddNumberToObject(c, "table_bus_Bps", r->bus_Bps);
+    cJSON_AddBoolToObject(c, "bus_feeds", r->bus_feeds);
+    if (isfinite(r->m7_row_px))
+        cJSON_AddNumberToObject(c, "m7_row_instructions_per_pixel", r->m7_row_px);
     else
-        cJSON_AddNullToObject(c, "m7_instructions_per_pixel");
+        cJSON_AddNullToObject(c, "m7_row_instructions_per_pixel");
     cJSON *u = cJSON_AddObjectToObject(j, "used");
     cJSON_AddNumberToObject(u, "adc_lo_V", r->adc_lo_v);
     cJSON_AddNumberToObject(u, "adc_hi_V", r->adc_hi_v);
@@ -354,18 +374,27 @@ static cJSON *fronts_json(const study *s)
 static cJSON *costs_json(void)
 {
     cJSON *c = cJSON_CreateObject();
-    for (int q = 0; q < STUDY_COST_COUNT; q++)
+    for (int q = 0; q < STUDY_COST_M7; q++)
         cJSON_AddStringToObject(c, study_cost_name(q),
                                 study_cost_measured(q) ? "measured here" : "modelled from the board");
-    cJSON_AddStringToObject(c, "m7_instructions_per_pixel", "not available: no Cortex-M7 bench in this tree");
+    cJSON_AddStringToObject(c, "table_bus_Bps", "the board file's controller.table_bus_MBps (0: not given); "
+                                                "bus_feeds false: --target skips the point");
+    cJSON_AddStringToObject(c, "m7_instructions_per_pixel",
+                            "measured, not modelled: bench_target's count of the correction on the Cortex-M7 (QEMU "
+                            "mps2-an500, -icount shift=0), per form (host/study/study_m7.c); null where it does not "
+                            "run that coefficient count");
+    cJSON_AddStringToObject(c, "m7_row_instructions_per_pixel",
+                            "measured, not modelled: the same for the row path (correction, ROW framing, CRC)");
     return c;
 }
 
-static cJSON *target_json(const study *s, double target)
+static cJSON *target_json(const study *s, double target, int acc)
 {
     cJSON *t = cJSON_CreateObject();
-    cJSON_AddNumberToObject(t, "pct", target);
-    for (int a = STUDY_ACC_TOTAL; a <= STUDY_ACC_FPN; a++) {
+    cJSON_AddNumberToObject(t, acc == STUDY_ACC_DISPLAY ? "levels" : "pct", target);
+    for (int a = STUDY_ACC_TOTAL; a <= STUDY_ACC_DISPLAY; a++) {
+        if ((acc == STUDY_ACC_DISPLAY) != (a == STUDY_ACC_DISPLAY) || a == STUDY_ACC_FLOOR)
+            continue;
         cJSON *by = cJSON_AddObjectToObject(t, study_acc_name(a)); /* cheapest point index per cost, or null */
         for (int c = 0; c < STUDY_COST_COUNT; c++) {
             int i = study_cheapest(s, a, c, target);
@@ -378,8 +407,8 @@ static cJSON *target_json(const study *s, double target)
     return t;
 }
 
-int study_write_json(const study *s, const char *outdir, const double *targets, int n_targets, double wall_s,
-                     int to_stdout)
+int study_write_json(const study *s, const char *outdir, const double *targets, const int *accs, int n_targets,
+                     double wall_s, int to_stdout)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "board", s->board);
@@ -392,7 +421,7 @@ int study_write_json(const study *s, const char *outdir, const double *targets, 
     cJSON_AddItemToObject(j, "cost_kinds", costs_json());
     cJSON *tj = cJSON_AddArrayToObject(j, "targets");
     for (int t = 0; t < n_targets; t++)
-        cJSON_AddItemToArray(tj, target_json(s, targets[t]));
+        cJSON_AddItemToArray(tj, target_json(s, targets[t], accs[t]));
     cJSON *pts = cJSON_AddArrayToObject(j, "points");
     for (int i = 0; i < s->n; i++)
         cJSON_AddItemToArray(pts, point_json(s, i));
@@ -440,9 +469,16 @@ static int write_data(const study *s, int c, const char *dir, char *all, char *f
 }
 
 static int plot_one(const study *s, int c, const char *file, const char *xlabel, double xscale, const char *outdir,
-                    const char *dir, const double *targets, int n_targets)
+                    const char *dir, const double *targets, const int *accs, int n_targets)
 {
     char all[1024], front[1024], script[8192], err[512];
+    int known = 0;
+    for (int i = 0; i < s->n; i++)
+        known += s->res[i].ok && isfinite(study_cost_value(&s->res[i], c));
+    if (!known) { /* M7 counts exist only for the forms bench_target runs */
+        fprintf(stderr, "wdrctl: study: %s not drawn: no point has a %s\n", file, study_cost_name(c));
+        return EX_OK;
+    }
     if (!write_data(s, c, dir, all, front, sizeof all))
         return study_fail(EX_CANTCREAT, "%s: cannot write plot data", dir);
     int len =
@@ -462,28 +498,37 @@ static int plot_one(const study *s, int c, const char *file, const char *xlabel,
                  study_cost_measured(c) ? "measured here" : "modelled from the board", all, xscale, all, xscale, front,
                  xscale, front, xscale, front, xscale, front, xscale, front, xscale, front, xscale);
     for (int t = 0; t < n_targets && len < (int)sizeof script - 64; t++)
-        len += snprintf(script + len, sizeof script - (size_t)len, ", %g w l lc rgb 'black' dt 4 t 'target %.3g %%'",
+        if (accs[t] != STUDY_ACC_DISPLAY) /* the plots' axis is contrast */
+            len += snprintf(script + len, sizeof script - (size_t)len, ", %g w l lc rgb 'black' dt 4 t 'target %.3g %%'",
                         targets[t], targets[t]);
     snprintf(script + len, sizeof script - (size_t)len, "\n");
     int rc = wdr_gnuplot_run(script, err, sizeof err);
     return rc ? study_fail(rc < 0 && strstr(err, "gnuplot") ? EX_UNAVAILABLE : EX_SOFTWARE, "plot: %s", err) : EX_OK;
 }
 
-int study_plot(const study *s, const char *outdir, const double *targets, int n_targets)
+int study_plot(const study *s, const char *outdir, const double *targets, const int *accs, int n_targets)
 {
     char dir[1024];
     if (wdr_plot_tmpdir(dir, sizeof dir))
         return study_fail(EX_CANTCREAT, "no temporary directory for plot data");
     int rc = plot_one(s, STUDY_COST_FRAME, "study_vs_image_time.png",
                       "time per image (ms; modelled: image frames x (reset + ramp + readout))", 1e3, outdir, dir,
-                      targets, n_targets);
+                      targets, accs, n_targets);
     if (rc == EX_OK)
         rc = plot_one(s, STUDY_COST_CAL, "study_vs_cal_time.png",
                       "calibration time on the board (s; modelled: (levels + dark) x frames x frame time)", 1, outdir,
-                      dir, targets, n_targets);
+                      dir, targets, accs, n_targets);
     if (rc == EX_OK)
         rc = plot_one(s, STUDY_COST_TABLE, "study_vs_table_bytes.png", "table bytes per pixel (firmware format)", 1,
-                      outdir, dir, targets, n_targets);
+                      outdir, dir, targets, accs, n_targets);
+    if (rc == EX_OK)
+        rc = plot_one(s, STUDY_COST_M7, "study_vs_m7_instructions.png",
+                      "Cortex-M7 instructions per pixel, correction (measured by bench_target; forms it runs)", 1,
+                      outdir, dir, targets, accs, n_targets);
+    if (rc == EX_OK)
+        rc = plot_one(s, STUDY_COST_BANDWIDTH, "study_vs_table_bandwidth.png",
+                      "table bandwidth at --fps (MB/s; modelled: table bytes x frame rate)", 1e-6, outdir, dir, targets,
+                      accs, n_targets);
     wdr_plot_tmpdir_remove(dir);
     return rc;
 }

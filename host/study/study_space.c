@@ -278,18 +278,19 @@ static int parse_names(const study_knobs *k, space *sp)
 {
     static const char *const ranges[] = {"full", "fit"}, *const timing[] = {"stamped", "uniform"},
                              *const models[] = {"simple3", "complex4", "lsq", "polymap", "spline"},
-                             *const forms[] = {"auto", "moebius", "poly", "basis"}, *const choice[] = {"log", "select"};
+                             *const forms[] = {"auto", "moebius", "poly", "basis", "compact", "shifted"},
+                             *const choice[] = {"log", "select"};
     static const int ranges_id[] = {0, 1}, timing_id[] = {WDR_TIMING_STAMPED, WDR_TIMING_UNIFORM},
                      models_id[] = {WDR_MODEL_SIMPLE3, WDR_MODEL_COMPLEX4, WDR_MODEL_LSQ, WDR_MODEL_POLYMAP,
                                     WDR_MODEL_SPLINE},
-                     forms_id[] = {-1, WDR_FORM_MOEBIUS, WDR_FORM_POLY, WDR_FORM_BASIS},
+                     forms_id[] = {-1, WDR_FORM_MOEBIUS, WDR_FORM_POLY, WDR_FORM_BASIS, WDR_FORM_COMPACT, WDR_FORM_SHIFTED},
                      choice_id[] = {STUDY_LEVELS_LOG, STUDY_LEVELS_SELECT};
     int rc;
     if ((rc = name_list("converter-ranges", k->ranges ? k->ranges : "full", ranges, ranges_id, 2, sp->fit,
                         &sp->n[D_FIT])) ||
         (rc = name_list("timing", k->timing ? k->timing : "stamped", timing, timing_id, 2, sp->tim, &sp->n[D_TIM])) ||
         (rc = name_list("model", k->model ? k->model : "spline", models, models_id, 5, sp->mod, &sp->n[D_MOD])) ||
-        (rc = name_list("form", k->form ? k->form : "auto", forms, forms_id, 4, sp->form, &sp->n[D_FORM])) ||
+        (rc = name_list("form", k->form ? k->form : "auto", forms, forms_id, 6, sp->form, &sp->n[D_FORM])) ||
         (rc = name_list("levels-choice", k->levels_choice ? k->levels_choice : "log", choice, choice_id, 2, sp->ch,
                         &sp->n[D_CH])))
         return rc;
@@ -345,7 +346,7 @@ static int knob_acts(const study_point *p, int d)
     case D_DACR: return !p->fit_ranges;
     case D_ENT: return p->timing == WDR_TIMING_UNIFORM;
     case D_HZ: return p->timing == WDR_TIMING_STAMPED;
-    case D_NC: return p->form != WDR_FORM_MOEBIUS;
+    case D_NC: return p->form != WDR_FORM_MOEBIUS && !wdr_cal_form_compact((uint16_t)p->form); /* fixed counts */
     default: return 1; /* D_LEV too: the paper models take 3 or 4 levels exact, more by least squares */
     }
 }
@@ -358,6 +359,8 @@ static int form_valid(const study_point *p)
         return 0; /* fewer levels than the paper model's parameters */
     if (p->form == WDR_FORM_MOEBIUS)
         return p->model == WDR_MODEL_SIMPLE3;
+    if (wdr_cal_form_compact((uint16_t)p->form)) /* the shared basis: learnt from the spline's maps */
+        return p->model == WDR_MODEL_SPLINE;
     if (p->model == WDR_MODEL_POLYMAP && p->form == WDR_FORM_POLY)
         return p->n_coeffs == 0; /* the polynomial map is its own table */
     return p->n_coeffs == 0 || p->n_coeffs >= 2;
@@ -408,6 +411,8 @@ static void fill_point(const space *sp, const int *i, study_point *p)
               : p->model == WDR_MODEL_SIMPLE3 ? WDR_FORM_MOEBIUS
               : p->model == WDR_MODEL_SPLINE  ? WDR_FORM_BASIS
                                               : WDR_FORM_POLY;
+    if (wdr_cal_form_compact((uint16_t)p->form))
+        p->n_coeffs = WDR_CAL_COMPACT_COEFFS; /* fixed by the form */
 }
 
 int study_expand(const study_knobs *k, study *s, int *skipped)

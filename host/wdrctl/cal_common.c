@@ -14,13 +14,14 @@
 const cli_choice cal_on_off[] = {{"on", 1}, {"off", 0}, {"1", 1}, {"0", 0}, {NULL, 0}};
 const cli_choice cal_forms[] = {
     {"moebius", WDR_FORM_MOEBIUS}, {"poly", WDR_FORM_POLY}, {"basis", WDR_FORM_BASIS},
-    {"compact", WDR_FORM_COMPACT}, {NULL, 0}};
+    {"compact", WDR_FORM_COMPACT}, {"shifted", WDR_FORM_SHIFTED}, {"auto", CAL_FORM_AUTO}, {NULL, 0}};
 
 const char *cal_form_name(int form)
 {
     return form == WDR_FORM_MOEBIUS   ? "moebius"
            : form == WDR_FORM_BASIS   ? "basis"
            : form == WDR_FORM_COMPACT ? "compact"
+           : form == WDR_FORM_SHIFTED ? "shifted"
                                       : "poly";
 }
 

@@ -35,7 +35,7 @@ typedef struct cal_opts {
     int noise_asked; /* --noise was given (a board has its own noise: calibrate --device refuses it) */
     const char *frames_text; /* --frames M or auto */
     int frames_auto;         /* --frames auto (the default): chosen from the probe's measured noise */
-    int form;                /* enum wdr_cal_form; -1: the model's default */
+    int form;                /* enum wdr_cal_form; CAL_FORM_AUTO (the default): chosen by the target */
     uint64_t seed;
 } cal_opts;
 
@@ -48,6 +48,7 @@ typedef struct cal_opts {
 /* Rows both commands' option tables use (cmd_calibrate.c, cmd_fpn_report.c): one row each. */
 #define CAL_O(f) offsetof(cal_opts, f)
 extern const cli_choice cal_on_off[], cal_forms[];
+#define CAL_FORM_AUTO (-1) /* --form auto: the smallest form that meets the target (cal_form_auto.h) */
 #define CAL_ROW_BOARD {"board", 0, CLI_STRING, CAL_O(board), "FILE", "board: a name in boards/ or a board.json file"}
 #define CAL_ROW_OPERATOR                                                                                             \
     {"operator", 0, CLI_STRING, CAL_O(op_name), "NAME", "operator of the simulated chip's LUT (default reinhard)"}

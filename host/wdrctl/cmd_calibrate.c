@@ -3,6 +3,7 @@
  * light level. The frame source for a board is host/cal/cal_board_source.c. */
 #include "cal_board_source.h"
 #include "cal_common.h"
+#include "cal_form_auto.h"
 #include "file_io.h"
 #include "operators.h"
 #include "transport_client.h"
@@ -289,7 +290,9 @@ static const cli_option calibrate_rows[] = {
     {"lut", 0, CLI_STRING, CAL_O(lut), "LUT.bin", "with --device: image with this LUT (stored with a margin)"},
     {"upload", 0, CLI_FLAG, CAL_O(upload), NULL, "with --device: store the table on the board and apply it"},
     CAL_ROW_OUT_SCALE,
-    {"form", 0, CLI_CHOICE, CAL_O(form), NULL, "table form (default: the model's)", .choices = cal_forms,
+    {"form", 0, CLI_CHOICE, CAL_O(form), NULL,
+     "table form; auto (default): the smallest that meets 1 % analog and 1.2x the floor for the operator",
+     .choices = cal_forms,
      .what = "table form"},
     CAL_ROW_SAMPLE, CAL_ROW_SEED, CAL_ROW_JSON, {0}};
 
@@ -307,6 +310,30 @@ static const char *sim_conditions(const cal_opts *o)
          "simulated chip: converters (partly) off, temporal noise on"},
         {"simulated chip: ADC and DAC on, temporal noise off", "simulated chip: ADC and DAC on, temporal noise on"}};
     return names[o->adc && o->dac][o->noise != 0];
+}
+
+/* --form auto (spline): the smallest form whose measured figures for this operator meet the
+ * target, printed with the figure of each smaller form it passed over; other models keep their
+ * own form (Moebius for simple3, the polynomial otherwise). */
+static void choose_form(wdr_cal_config *cfg, const wdr_operator_info *op)
+{
+    const wdr_form_figure *rej[WDR_FORM_AUTO_MAX];
+    int nr;
+    wdr_form_target t = WDR_FORM_TARGET_DEFAULT;
+    if (cfg->model != WDR_MODEL_SPLINE)
+        return;
+    const wdr_form_figure *f = wdr_form_auto(wdr_form_figures, wdr_form_figures_n, op->id, t, rej, &nr);
+    for (int k = 0; k < nr; k++)
+        fprintf(stderr, "form auto: %s rejected for %s: %.2f %% analog (target %.2g %%), %.2fx the 12-bit floor (target %.2gx)\n",
+                cal_form_name(rej[k]->form), op->name, rej[k]->analog_pct, t.analog_pct, rej[k]->floor_ratio,
+                t.floor_ratio);
+    if (!f) {
+        fprintf(stderr, "form auto: no measured form meets the target for %s: basis-8\n", op->name);
+        return; /* wdr_cal_config_defaults' basis-8 */
+    }
+    cfg->form = f->form, cfg->n_coeffs = f->n_coeffs;
+    fprintf(stderr, "form auto: %s for %s (%.0f B/px; measured: %.2f %% analog worst, %.2fx the 12-bit floor)\n",
+            cal_form_name(f->form), op->name, f->bytes_px, f->analog_pct, f->floor_ratio);
 }
 
 int cmd_calibrate(int argc, char **argv)
@@ -329,9 +356,9 @@ int cmd_calibrate(int argc, char **argv)
     wdr_cal_config_defaults(&r.cfg, model);
     if (o.form == WDR_FORM_MOEBIUS && model != WDR_MODEL_SIMPLE3)
         return wdrctl_fail(EX_USAGE, "calibrate: --form moebius is exact only for --model simple3");
-    if (o.form >= 0)
+    if (o.form != CAL_FORM_AUTO)
         r.cfg.form = o.form;
-    if (o.form == WDR_FORM_COMPACT)
+    if (wdr_cal_form_compact((uint16_t)o.form))
         r.cfg.n_coeffs = WDR_CAL_COMPACT_COEFFS;
     if (o.device) {
         device_src d;
@@ -358,8 +385,8 @@ int cmd_calibrate(int argc, char **argv)
     if ((rc = cal_load_board(o.board, &b)) != EX_OK || (rc = cal_open_sim(&o, &b, &c)) != EX_OK)
         return rc;
     cal_set_output(&o, &r.cfg, (unsigned)b.adc_bits);
-    if (o.form < 0)
-        wdr_cal_default_form(&r.cfg, op->id);
+    if (o.form == CAL_FORM_AUTO)
+        choose_form(&r.cfg, op);
     if (o.dac)
         cal_set_step(&b, &r.cfg);
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */

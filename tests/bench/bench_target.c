@@ -8,6 +8,9 @@
  * instruction per cycle and no stall, so it is an upper bound for the pipeline, not a promise.
  *
  *   bench_target [--quick] [--qemu QEMU --image wdr_bench_mps2.elf --data target_data --dir DIR]
+ *                [--counts FILE]
+ * --counts writes the measured instruction counts, one "form n_coeffs corr row" line per form, for
+ * test_study_m7 to hold the study's copy (host/study/study_m7.c) to them.
  * Without --image only the accuracy half runs; --quick judges Drago alone, not all seven. */
 #include "bench_target_study.h"
 #include <signal.h>
@@ -29,7 +32,7 @@ typedef struct form_row {
 static form_row forms[] = {
     {"identity", WDR_FORM_IDENTITY, 0, 0, NAN, NAN, NAN}, {"moebius", WDR_FORM_MOEBIUS, 3, 13, NAN, NAN, NAN},
     {"poly", WDR_FORM_POLY, 5, 21, NAN, NAN, NAN},        {"basis", WDR_FORM_BASIS, 8, 33, NAN, NAN, NAN},
-    {"compact", WDR_FORM_COMPACT, 4, 9, NAN, NAN, NAN},
+    {"compact", WDR_FORM_COMPACT, 4, 9, NAN, NAN, NAN},     {"shifted", WDR_FORM_SHIFTED, 4, 9, NAN, NAN, NAN},
 };
 #define N_FORMS (sizeof forms / sizeof forms[0])
 
@@ -69,11 +72,11 @@ static void parse_line(const char *line)
 /* Boot the bench image with the tables in PSRAM (2 MiB apart) and read its UART until "done". */
 static int count_instructions(const char *qemu, const char *image, const char *dir)
 {
-    char loaders[4][300], frames[300];
+    char loaders[5][300], frames[300];
     snprintf(frames, sizeof frames, "loader,file=%s/f.bin,addr=0x60800000,force-raw=on", dir);
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < 5; i++) /* 1 MiB apart (main_bench.c's TABLE_AT): a 640 x 8 table is < 200 KB */
         snprintf(loaders[i], sizeof loaders[i], "loader,file=%s/%s.bin,addr=0x%x,force-raw=on", dir, forms[i + 1].name,
-                 0x60000000u + (unsigned)i * 0x200000u);
+                 0x60000000u + (unsigned)i * 0x100000u);
     int pipefd[2];
     if (pipe(pipefd))
         return 1;
@@ -83,7 +86,7 @@ static int count_instructions(const char *qemu, const char *image, const char *d
         close(pipefd[0]);
         execl(qemu, qemu, "-M", "mps2-an500", "-nographic", "-monitor", "none", "-icount", "shift=0", "-kernel", image,
               "-device", frames, "-device", loaders[0], "-device", loaders[1], "-device", loaders[2], "-device",
-              loaders[3], "-serial", "stdio", (char *)NULL);
+              loaders[3], "-device", loaders[4], "-serial", "stdio", (char *)NULL);
         _exit(127);
     }
     close(pipefd[1]);
@@ -107,7 +110,7 @@ static int judge(int n_ops)
     for (int o = 0; o < n_ops; o++) {
         study_chip c;
         wdr_cal_result spline, simple3;
-        int op = n_ops == STUDY_OPS ? o : 4; /* --quick: Drago, the hardest for the compact form */
+        int op = n_ops == STUDY_OPS ? o : 3; /* --quick: Tumblin-Rushmeier, the hardest for the compact forms */
         if (study_open(&c, study_ops[op]) || study_fit(&c, WDR_MODEL_SPLINE, 19, &spline) ||
             study_fit(&c, WDR_MODEL_SIMPLE3, 3, &simple3))
             return 1;
@@ -140,7 +143,8 @@ static void print_table(void)
     printf("(insn = instructions per pixel on the Cortex-M7, counted by QEMU -icount shift=0; not cycles: the M7\n"
            " dual-issues, external-memory table reads stall. fps = 480e6 / (row insn x 640 x 480), an upper bound;\n"
            " table MB/s = the reads that frame rate needs. Worst err: contrast error, analog, worst over operators;\n"
-           " Moebius from the 3-parameter model. basis = 8 functions; compact = 4, int16.)\n");
+           " Moebius from the 3-parameter model. basis = 8 functions; compact = 4, int16; shifted = compact\n"
+           " with a code shift per pixel in its flag byte, format 1.3.)\n");
 }
 
 /* Bytes of a whole stored table (header, shared block, rows) for a sensor of w x h, per form. */
@@ -149,7 +153,8 @@ static double table_bytes(const form_row *f, uint16_t w, uint16_t h)
     switch (f->form) {
     case WDR_FORM_IDENTITY: return 0;
     case WDR_FORM_BASIS: return (double)wdr_cal_size_basis(w, h, 8, WDR_CAL_MAX_SHARED_FLOATS / 8);
-    case WDR_FORM_COMPACT: return (double)wdr_cal_size_compact(w, h, WDR_CAL_MAX_SHARED_FLOATS / 4);
+    case WDR_FORM_COMPACT:
+    case WDR_FORM_SHIFTED: return (double)wdr_cal_size_compact(w, h, WDR_CAL_MAX_SHARED_FLOATS / 4);
     default: return (double)wdr_cal_size(w, h, (uint16_t)f->n);
     }
 }
@@ -165,9 +170,19 @@ static void print_external(void)
            " wider build; the sizes are what its table takes.)\n");
 }
 
+static int write_counts(const char *path)
+{
+    FILE *f = fopen(path, "w");
+    if (!f)
+        return fprintf(stderr, "bench_target: %s: cannot write\n", path), 1;
+    for (size_t i = 0; i < N_FORMS; i++)
+        fprintf(f, "%d %d %.2f %.2f\n", forms[i].form, forms[i].n, forms[i].corr, forms[i].row);
+    return fclose(f) ? 1 : 0;
+}
+
 int main(int argc, char **argv)
 {
-    const char *qemu = NULL, *image = NULL, *data = NULL, *dir = "/tmp";
+    const char *qemu = NULL, *image = NULL, *data = NULL, *dir = "/tmp", *counts = NULL;
     int quick = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--quick"))
@@ -180,6 +195,8 @@ int main(int argc, char **argv)
             data = argv[++i];
         else if (i + 1 < argc && !strcmp(argv[i], "--dir"))
             dir = argv[++i];
+        else if (i + 1 < argc && !strcmp(argv[i], "--counts"))
+            counts = argv[++i];
         else
             return fprintf(stderr, "bench_target: unknown argument '%s'\n", argv[i]), 64;
     }
@@ -187,7 +204,7 @@ int main(int argc, char **argv)
     if (judge(quick ? 1 : STUDY_OPS))
         return 1;
     if (qemu && image && data) {
-        if (make_inputs(data, dir) || count_instructions(qemu, image, dir))
+        if (make_inputs(data, dir) || count_instructions(qemu, image, dir) || (counts && write_counts(counts)))
             return 1;
     } else
         printf("bench_target: no --qemu/--image/--data: instruction counts skipped (.ci/test runs them)\n");

@@ -11,8 +11,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#define STUDY_W 64
+#define STUDY_W 64 /* the default chip; study_open_chip takes any */
 #define STUDY_H 48
+#define STUDY_SEED 11
 #define STUDY_TEST 31
 #define STUDY_OPS 7
 
@@ -20,6 +21,7 @@ static const char *const study_ops[STUDY_OPS] = {"reinhard", "reinhard_white", "
                                                  "drago",    "exponential",    "logarithmic"};
 
 typedef struct study_chip {
+    int w, h;
     wdr_sim *sim;
     uint8_t *lut;
     wdr_cal_simsrc ss;
@@ -28,17 +30,19 @@ typedef struct study_chip {
     double lo, hi, x[STUDY_TEST];
 } study_chip;
 
-static int study_open(study_chip *c, const char *op)
+/* A w x h chip of the given seed under operator op. */
+static inline int study_open_chip(study_chip *c, const char *op, int w, int h, uint32_t seed)
 {
     wdr_board b;
     char err[512];
     wdr_board_defaults(&b);
-    b.width = STUDY_W, b.height = STUDY_H;
-    if (wdr_cal_sim_setup(&b, op, 11, 0, 0.06, &c->sim, &c->lut, err, sizeof err))
+    b.width = w, b.height = h;
+    c->w = w, c->h = h;
+    if (wdr_cal_sim_setup(&b, op, seed, 0, 0.06, &c->sim, &c->lut, err, sizeof err))
         return fprintf(stderr, "bench_target: %s: %s\n", op, err), 1;
     wdr_sim_set_effect(c->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
     c->ss = (wdr_cal_simsrc){c->sim, 0, 500};
-    c->src = (wdr_cal_source){STUDY_W, STUDY_H, wdr_cal_sim_capture, &c->ss};
+    c->src = (wdr_cal_source){w, h, wdr_cal_sim_capture, &c->ss};
     double amps[37];
     for (int k = 0; k < 37; k++)
         amps[k] = 1e-14 * pow(10, k / 6.0);
@@ -50,7 +54,12 @@ static int study_open(study_chip *c, const char *op)
     return 0;
 }
 
-static void study_close(study_chip *c)
+static inline int study_open(study_chip *c, const char *op)
+{
+    return study_open_chip(c, op, STUDY_W, STUDY_H, STUDY_SEED);
+}
+
+static inline void study_close(study_chip *c)
 {
     wdr_cal_levels_free(&c->grid);
     wdr_sim_destroy(c->sim);
@@ -58,7 +67,7 @@ static void study_close(study_chip *c)
 }
 
 /* Fit with model over n_cur currents of the chip's range. */
-static int study_fit(study_chip *c, int model, int n_cur, wdr_cal_result *res)
+static inline int study_fit(study_chip *c, int model, int n_cur, wdr_cal_result *res)
 {
     char err[512];
     wdr_cal_config cfg;
@@ -76,7 +85,7 @@ static int study_fit(study_chip *c, int model, int n_cur, wdr_cal_result *res)
 }
 
 /* Worst contrast error (%) of a table of form/n from the fit, on the chip's test currents. */
-static double study_worst(study_chip *c, const wdr_cal_result *res, int form, int n)
+static inline double study_worst(study_chip *c, const wdr_cal_result *res, int form, int n)
 {
     char err[512];
     uint8_t *tb;

@@ -100,8 +100,10 @@ static void fronts_are_cheapest_first_and_improving(void **state)
     int idx[8];
     for (int a = 0; a < STUDY_ACC_COUNT; a++)
         for (int c = 0; c < STUDY_COST_COUNT; c++) {
-            int m = study_front(&s, a, c, idx);
-            assert_true(m >= 1);
+            int m = study_front(&s, a, c, idx), known = 0;
+            for (int i = 0; i < s.n; i++)
+                known += isfinite(study_cost_value(&s.res[i], c));
+            assert_true(m >= 1 || !known); /* M7: no count for poly-8, which bench_target does not run */
             for (int j = 1; j < m; j++) {
                 assert_true(study_cost_value(&s.res[idx[j]], c) >= study_cost_value(&s.res[idx[j - 1]], c));
                 assert_true(study_acc_value(&s.res[idx[j]], a) < study_acc_value(&s.res[idx[j - 1]], a));

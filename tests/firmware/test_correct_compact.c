@@ -29,8 +29,9 @@ typedef struct table {
     uint8_t flags[W * H];
 } table;
 
-/* B0 the identity in codes, B1..B3 smooth bends; c0 about 1, the others a few codes. */
-static void build(table *t, float out_scale, uint16_t out_max)
+/* B0 the identity in codes, B1..B3 smooth bends; c0 about 1, the others a few codes. form SHIFTED:
+ * the pixel bytes give every shift from -64 to 63 across the table, and pixel 5 is flagged. */
+static void build_form(table *t, float out_scale, uint16_t out_max, uint16_t form)
 {
     for (uint32_t j = 0; j < K; j++)
         for (int k = 0; k < 4; k++) {
@@ -38,7 +39,8 @@ static void build(table *t, float out_scale, uint16_t out_max)
             t->shared[j * 4 + k] = k == 0 ? x * RAW_MAX : 20.0f * sinf(3.0f * k * x);
         }
     for (int i = 0; i < W * H; i++) {
-        t->flags[i] = 0;
+        t->flags[i] = form == WDR_FORM_SHIFTED ? (uint8_t)(i == 5 ? WDR_CAL_SHIFT_FLAGGED | WDR_PIX_HOT : (unsigned)(i * 23) % 128u)
+                                               : 0;
         for (int k = 0; k < 4; k++)
             t->coeffs[k * W * H + i] = k == 0 ? 0.97f + 0.0013f * (float)i : 0.5f * (float)((i * (k + 3)) % 11) - 2.0f;
     }
@@ -50,12 +52,20 @@ static void build(table *t, float out_scale, uint16_t out_max)
                         .out_scale = out_scale,
                         .out_max = out_max,
                         .raw_max = RAW_MAX,
+                        .form = form,
+                        .bad_pixels = form == WDR_FORM_SHIFTED,
                         .shared_points = K};
     t->len = wdr_cal_size_compact(W, H, K);
     t->buf = aligned_alloc(8, (t->len + 7) & ~(size_t)7);
     wdr_cal_encode_compact(&h, t->shared, t->coeffs, t->flags, t->buf);
     assert_int_equal(wdr_cal_parse(t->buf, t->len, &t->v), WDR_OK);
-    assert_int_equal(t->v.h.version_minor, 2);
+    assert_int_equal(t->v.h.version_minor, form == WDR_FORM_SHIFTED ? 3 : 2);
+    assert_int_equal(t->v.h.form, form);
+}
+
+static void build(table *t, float out_scale, uint16_t out_max)
+{
+    build_form(t, out_scale, out_max, WDR_FORM_COMPACT);
 }
 
 /* v of SPEC.md in double, from the table's own int16, scales and offsets. */
@@ -116,6 +126,61 @@ static void kernel_follows_the_formula(void **state)
         assert_true(worst_f32 <= 0.05 * outs[o].scale);
         free(t.buf);
     }
+}
+
+/* SHIFTED: pixel i reads code min(y + b_i, raw_max + 64) - 64 of the same formula, with and without
+ * the per-code points (same bits, the points reaching 64 codes below 0); the float path reads both
+ * codes around y through the shift; the flagged pixel takes its neighbours' mean. */
+static void shifted_kernel_follows_the_formula(void **state)
+{
+    (void)state;
+    table t;
+    build_form(&t, 1.0f, 4095, WDR_FORM_SHIFTED);
+    static uint32_t points[4 * 8192], points_cmp[4 * (RAW_MAX + 1 + WDR_CAL_SHIFT_PAD)];
+    wdr_cal_view pc = t.v, pc_cmp = t.v; /* points to 2^13 codes (one USAT), and just enough (a compare) */
+    assert_int_equal(wdr_correct_per_code_compact(&pc, points, 4 * (RAW_MAX + 1)), WDR_E_TOO_LARGE);
+    assert_int_equal(wdr_correct_per_code_compact(&pc, points, sizeof points / sizeof points[0]), WDR_OK);
+    assert_int_equal(pc.code_sat, 13);
+    assert_int_equal(wdr_correct_per_code_compact(&pc_cmp, points_cmp, sizeof points_cmp / sizeof points_cmp[0]),
+                     WDR_OK);
+    assert_int_equal(pc_cmp.code_sat, 0);
+    double worst = 0, worst_f32 = 0;
+    for (int r = 0; r < H; r++) {
+        const uint8_t *b = wdr_cal_row_flags(&t.v, r);
+        for (uint32_t y0 = 0; y0 <= RAW_MAX + 7; y0 += W) {
+            uint16_t raw[W], slow[W], fast[W], cmp[W];
+            float rawf[W], outf[W];
+            for (int c = 0; c < W; c++) /* the last rows: raw codes far past raw_max (8191 and beyond) */
+                raw[c] = (uint16_t)(y0 + (uint32_t)c + (y0 > RAW_MAX - W ? 4000u * (uint32_t)r : 0u)),
+                rawf[c] = (float)raw[c] + 0.25f;
+            assert_int_equal(wdr_correct_row(&t.v, r, raw, slow), WDR_OK);
+            assert_int_equal(wdr_correct_row(&pc, r, raw, fast), WDR_OK);
+            assert_int_equal(wdr_correct_row(&pc_cmp, r, raw, cmp), WDR_OK);
+            assert_memory_equal(slow, fast, sizeof slow);
+            assert_memory_equal(slow, cmp, sizeof slow);
+            assert_int_equal(wdr_correct_row_f32(&t.v, r, rawf, outf), WDR_OK);
+            for (int c = 0; c < W; c++) {
+                if (b[c] & WDR_CAL_SHIFT_FLAGGED) {
+                    assert_int_equal(fast[c], (fast[c - 1] + fast[c + 1] + 1) / 2);
+                    continue;
+                }
+                double u = fmin((double)raw[c] + b[c], RAW_MAX + 64.0) - 64.0; /* raw not clamped first */
+                worst = fmax(worst, fabs(fast[c] - fmin(fmax(formula(&t.v, r, c, u), 0), 4095)));
+                if (u + 1 <= RAW_MAX && rawf[c] < RAW_MAX) {
+                    double want_f = fmin(fmax(formula(&t.v, r, c, u + 0.25), 0), 4095);
+                    worst_f32 = fmax(worst_f32, fabs(outf[c] - want_f));
+                }
+            }
+        }
+    }
+    printf("  shifted: worst |kernel - formula| %.4f codes, float path %.4f\n", worst, worst_f32);
+    assert_true(worst <= 0.55);
+    assert_true(worst_f32 <= 0.05);
+    /* a flag count that ignores the shift bytes' meaning is refused: count 0 against 1 flagged */
+    wdr_put_u32(t.buf + 40, 0);
+    wdr_put_u32(t.buf + 60, wdr_crc32(0, t.buf, WDR_CAL_HEADER_SIZE - 4));
+    assert_int_equal(wdr_cal_parse(t.buf, t.len, &pc), WDR_E_INVAL);
+    free(t.buf);
 }
 
 /* The encoder keeps the spread: a pixel's dequantised coefficient is within half a step. */
@@ -211,6 +276,7 @@ int main(void)
         cmocka_unit_test(quantisation_within_half_a_step),
         cmocka_unit_test(extremes_stay_in_range),
         cmocka_unit_test(parser_refuses_bad_compact_tables),
+        cmocka_unit_test(shifted_kernel_follows_the_formula),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -4,7 +4,7 @@
  *   target_data frames OUT W H N     replay file: N frames of raw 12-bit codes (every code 0..4095
  *                                    appears, rails included), in the layout hal/mps2 reads
  *   target_data lut OUT              a 12-bit stamped LUT
- *   target_data cal FORM OUT W H     a table of FORM (moebius, poly, basis, compact) for the board,
+ *   target_data cal FORM OUT W H     a table of FORM (moebius, poly, basis, compact, shifted) for the board,
  *                                    with flagged pixels (single, runs, at both row ends)
  *   target_data check FRAMES CAL|none CAP.pfm...
  *                                    each capture must equal, to the bit, the host kernel's output
@@ -140,6 +140,7 @@ static int make_cal(const char *name, const char *out, int w, int h)
                : !strcmp(name, "poly")    ? WDR_FORM_POLY
                : !strcmp(name, "basis")   ? WDR_FORM_BASIS
                : !strcmp(name, "compact") ? WDR_FORM_COMPACT
+               : !strcmp(name, "shifted") ? WDR_FORM_SHIFTED
                                           : -1;
     if (form < 0)
         return fprintf(stderr, "target_data: unknown form '%s'\n", name), 2;
@@ -154,6 +155,8 @@ static int make_cal(const char *name, const char *out, int w, int h)
         for (int c = 0; c < w; c++) {
             size_t i = (size_t)r * w + c;
             bad += (flags[i] = flag_of(w, r, c)) != 0;
+            if (form == WDR_FORM_SHIFTED) /* the pixel byte: 128 | flags, or a shift of -64..63 */
+                flags[i] = flags[i] ? (uint8_t)(WDR_CAL_SHIFT_FLAGGED | flags[i]) : (uint8_t)((c * 37 + r) % 128);
             for (int k = 0; k < n; k++)
                 coeffs[(size_t)k * np + i] = coefficient(form, k, RAW_MAX / 2.0f);
         }
@@ -172,7 +175,7 @@ static int make_cal(const char *name, const char *out, int w, int h)
                          .raw_max = RAW_MAX,
                          .bad_pixels = bad};
     size_t len;
-    if (form == WDR_FORM_BASIS || form == WDR_FORM_COMPACT) {
+    if (form == WDR_FORM_BASIS || wdr_cal_form_compact((uint16_t)form)) {
         hd.in_scale = (float)(K - 1) / RAW_MAX, hd.in_offset = 0.0f, hd.shared_points = K;
         if (form == WDR_FORM_BASIS)
             wdr_cal_encode_basis(&hd, shared, coeffs, flags, buf), len = wdr_cal_size_basis(hd.width, hd.height, 8, K);
@@ -195,7 +198,7 @@ static int make_cal(const char *name, const char *out, int w, int h)
 static int active_view(const char *path, uint8_t **buf, wdr_cal_view *v, int w, int h)
 {
     static float basis_points[4096 * 8];
-    static uint32_t compact_points[4096 * 4];
+    static uint32_t compact_points[8192 * 4]; /* SHIFTED: one USAT a pixel (correct.c) */
     size_t len;
     if (!strcmp(path, "none"))
         return wdr_cal_identity(v, MPS2_SENSOR_ID, (uint16_t)w, (uint16_t)h, 1.0f, RAW_MAX, RAW_MAX);
@@ -203,7 +206,7 @@ static int active_view(const char *path, uint8_t **buf, wdr_cal_view *v, int w, 
         return fprintf(stderr, "target_data: %s: not a table\n", path), 1;
     if (v->h.form == WDR_FORM_BASIS)
         return wdr_correct_per_code(v, basis_points, sizeof basis_points / sizeof(float));
-    if (v->h.form == WDR_FORM_COMPACT)
+    if (wdr_cal_form_compact(v->h.form))
         return wdr_correct_per_code_compact(v, compact_points, sizeof compact_points / sizeof(uint32_t));
     return 0;
 }
