@@ -67,10 +67,18 @@ static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
     return EX_OK; /* frames come raw (wdr_client_capture_raw): no table is changed to measure */
 }
 
-static void close_device(device_src *d)
+/* On success and on failure alike: the scene goes back in front of a simulated board (a failure
+ * to do so fails a calibration that had succeeded; after a failure it is only reported). */
+static int close_device(device_src *d, int rc)
 {
-    wdr_cal_board_close(&d->board);
+    int restored = d->conn.c ? wdr_cal_board_close(&d->board) : WDR_OK;
+    if (restored && rc == EX_OK)
+        rc = wdrctl_conn_fail(&d->conn, restored);
+    else if (restored)
+        fprintf(stderr, "wdrctl: the board stays on uniform light: %s (run 'wdrctl sim illuminant scene')\n",
+                d->conn.c->err);
     wdrctl_disconnect(&d->conn);
+    return rc;
 }
 
 /* ---- verification: the figures of host/cal/cal_metrics.h on fresh frames ---- */
@@ -341,7 +349,7 @@ int cmd_calibrate(int argc, char **argv)
             if (rc == EX_OK && o.upload)
                 rc = upload_table(&d, o.device, &r);
         }
-        close_device(&d);
+        rc = close_device(&d, rc);
         cal_free_run(&r);
         return rc;
     }

@@ -77,8 +77,9 @@ DEVICE_COMMAND(wdrctl_cmd_capture, "capture", NULL, 0, 0, "capture N frames to P
                cmd_capture);
 DEVICE_COMMAND(wdrctl_cmd_stream, "stream", NULL, 0, 0, "frames back to back, one line each, until Ctrl-C",
                stream_rows, cmd_stream);
-DEVICE_COMMAND(wdrctl_cmd_sim_illuminant, "sim illuminant", "AMPS", 1, 1,
-               "light every pixel of a simulated board uniformly", no_rows, cmd_sim_illuminant);
+DEVICE_COMMAND(wdrctl_cmd_sim_illuminant, "sim illuminant", "AMPS|scene", 1, 1,
+               "light every pixel of a simulated board uniformly, or put its scene back", no_rows,
+               cmd_sim_illuminant);
 
 /* Parse argv (argv[0] is the command name) by cmd's table; the board from the global options. */
 static int parse_opts(int argc, char **argv, const cli_command *cmd, dev_opts *o)
@@ -525,14 +526,17 @@ int cmd_sim_illuminant(int argc, char **argv)
     wdrctl_conn conn;
     double amps = 0;
     int rc = parse_opts(argc, argv, &wdrctl_cmd_sim_illuminant, &o);
-    if (rc != EX_OK || (rc = parse_arg("sim illuminant", "AMPS", o.args[0], 0, HUGE_VAL, &amps)) != EX_OK)
+    int scene = rc == EX_OK && !strcmp(o.args[0], "scene");
+    if (rc == EX_OK && !scene)
+        rc = parse_arg("sim illuminant", "AMPS (or 'scene')", o.args[0], 0, HUGE_VAL, &amps);
+    if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
-    if ((rc = connect_opts(&o, &conn)) != EX_OK)
-        return rc;
-    int r = wdr_client_set_illuminant(conn.c, amps);
+    int r = scene ? wdr_client_restore_scene(conn.c) : wdr_client_set_illuminant(conn.c, amps);
     rc = r == WDR_OK ? EX_OK : wdrctl_conn_fail(&conn, r);
-    if (rc == EX_OK)
-        printf("illuminant set to %g A on every pixel\n", amps);
+    if (rc == EX_OK && scene)
+        printf("the pixels see the scene again\n");
+    else if (rc == EX_OK)
+        printf("illuminant set to %g A on every pixel (wdrctl sim illuminant scene: back to the scene)\n", amps);
     wdrctl_disconnect(&conn);
     return rc;
 }

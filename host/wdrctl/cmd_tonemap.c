@@ -25,6 +25,7 @@ typedef struct tonemap_opts {
 } tonemap_opts;
 
 #define O(f) offsetof(tonemap_opts, f)
+#define AGREE_LEVELS 8 /* display levels a capture may stray from the software image and still agree */
 static const cli_option tonemap_rows[] = {
     {"scene", 0, CLI_STRING, O(scene), "FILE", "the scene (sim/scenes/*.json)", .flags = CLI_REQUIRED},
     {"output", 'o', CLI_STRING, O(out), "SOFT.png", "the scene tone-mapped in software", .flags = CLI_REQUIRED},
@@ -157,6 +158,21 @@ static int capture_image(const char *path, const wdr_board *b, int w, int h, con
     return EX_OK;
 }
 
+/* How far the capture lies from the software image, in display levels: the figure the side by
+ * side shows by eye (a flat or misplaced capture is far off). */
+static void print_agreement(const uint8_t *soft, const uint8_t *cap, long n)
+{
+    double sum = 0;
+    long within = 0;
+    for (long i = 0; i < n; i++) {
+        int d = abs((int)cap[i] - (int)soft[i]);
+        sum += d;
+        within += d <= AGREE_LEVELS;
+    }
+    printf("capture against software: mean |difference| %.2f of 255 levels, %.1f %% of pixels within %d\n",
+           sum / (double)n, 100.0 * (double)within / (double)n, AGREE_LEVELS);
+}
+
 static int write_outputs(const tonemap_opts *o, int w, int h, const uint8_t *soft, const uint8_t *cap)
 {
     char err[512];
@@ -201,6 +217,8 @@ int cmd_tonemap(int argc, char **argv)
         if (o.capture)
             rc = capture_image(o.capture, &b, sc.width, sc.height, &op, o.nominal ? &nc : NULL, cap);
     }
+    if (rc == EX_OK && cap)
+        print_agreement(soft, cap, n);
     if (rc == EX_OK)
         rc = write_outputs(&o, sc.width, sc.height, soft, cap);
     if (rc == EX_OK)
