@@ -19,6 +19,7 @@ static const cli_section sections[] = {
               "(hal/linux/hal_linux_config.h); assemble the USB gadget in configfs first (hal/linux/README.md)."},
     {"EXIT STATUS", "It runs until stopped; 1 when the board's bring-up fails (the message names the device, "
                     "the call and errno), 64 on a bad command line."},
+    {"EXAMPLES", "wdr-board &            # on the board, once its USB gadget is assembled"},
     {"SEE ALSO", "wdrctl(1), wdr-simboard(1)"},
     {NULL, NULL}};
 static const cli_program board_program = {

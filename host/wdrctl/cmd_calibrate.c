@@ -282,7 +282,8 @@ static int calibrate_with(const cal_opts *o, const wdr_cal_source *src, cal_run 
 
 static const cli_option calibrate_rows[] = {
     {"output", 'o', CLI_STRING, CAL_O(out), "CAL.bin", "where the calibration table goes"},
-    {"model", 0, CLI_STRING, CAL_O(models), "NAME", "spline, simple3, complex4, lsq or polymap (default spline)"},
+    {"model", 0, CLI_STRING, CAL_O(models), "NAME", "spline, simple3, complex4, lsq or polymap (default spline)",
+     .values = "spline simple3 complex4 lsq polymap"},
     {"models", 0, CLI_STRING, CAL_O(models), "NAME", "the same as --model", .flags = CLI_HIDDEN},
     {"currents", 0, CLI_STRING, CAL_O(currents), "A,B,..", "the light levels, in A per pixel, rising"},
     {"levels-file", 0, CLI_STRING, CAL_O(levels_file), "FILE", "the light levels, one per line (# comments)"},

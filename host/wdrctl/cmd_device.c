@@ -562,12 +562,6 @@ static void frame_path(const char *out, uint32_t index, int several, char *path,
         snprintf(path, cap, "%.*s-%04u%s", (int)(dot - out), out, index, dot);
 }
 
-static int has_ext(const char *path, const char *ext)
-{
-    size_t n = strlen(path), e = strlen(ext);
-    return n > e && !strcasecmp(path + n - e, ext);
-}
-
 /* Codes (or averaged codes) to the file: PFM keeps codes as floats; PNG scales the ADC range to
  * 8 or 16 bits unless --raw; --negate flips it so that brighter light looks brighter. */
 static int write_image(const capture_job *j, const char *path, const double *codes)
@@ -578,7 +572,7 @@ static int write_image(const capture_job *j, const char *path, const double *cod
     size_t n = (size_t)w * (size_t)h;
     char err[320];
     int rc;
-    if (has_ext(path, ".pfm")) {
+    if (wdr_path_has_ext(path, ".pfm")) {
         float *f = malloc(n * sizeof *f);
         if (!f)
             return wdrctl_fail(EX_OSERR, "out of memory");
@@ -623,10 +617,11 @@ static int on_captured(void *ctx, const wdr_frame *f)
 
 static int check_output_name(const char *cmd, const char *out)
 {
+    char err[300];
     if (!out)
         return wdrctl_fail(EX_USAGE, "%s: -o FILE (.png or .pfm) is required", cmd);
-    if (!has_ext(out, ".png") && !has_ext(out, ".pfm"))
-        return wdrctl_fail(EX_USAGE, "%s: output '%s' must end in .png or .pfm", cmd, out);
+    if (wdr_output_name_check(out, ".png .pfm", err, sizeof err))
+        return wdrctl_fail(EX_USAGE, "%s: %s", cmd, err);
     return EX_OK;
 }
 

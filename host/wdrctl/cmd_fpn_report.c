@@ -669,7 +669,8 @@ static int report_outputs(report *rp)
 static const cli_option fpn_report_rows[] = {
     {"outdir", 0, CLI_STRING, CAL_O(outdir), "DIR", "where the report goes (fpn.json, plots, test images)",
      .flags = CLI_REQUIRED},
-    {"models", 0, CLI_STRING, CAL_O(models), "A,B,..", "models to compare (default spline,simple3,complex4)"},
+    {"models", 0, CLI_STRING, CAL_O(models), "A,B,..", "models to compare (default spline,simple3,complex4)",
+     .values = "spline simple3 complex4 lsq polymap"},
     CAL_ROW_FRAMES, CAL_ROW_BOARD, CAL_ROW_OPERATOR, CAL_ROW_ADC, CAL_ROW_DAC, CAL_ROW_SAMPLE, CAL_ROW_SEED, CAL_ROW_OUT_SCALE,
     CAL_ROW_JSON, {0}};
 

@@ -62,11 +62,12 @@ int cmd_operators(int argc, char **argv)
 #define O(f) offsetof(lut_opts, f)
 static const cli_choice timings[] = {{"uniform", WDR_TIMING_UNIFORM}, {"stamped", WDR_TIMING_STAMPED}, {NULL, 0}};
 static const cli_option lut_build_rows[] = {
-    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (see 'wdrctl operators')",
+    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (see 'wdrctl operators')", .values = "@operators",
      .flags = CLI_REQUIRED},
     {"output", 'o', CLI_STRING, O(out), "LUT.bin", "where the table goes", .flags = CLI_REQUIRED},
     {"param", 0, CLI_LIST, O(params), "KEY=VALUE", "an operator parameter", .max = 16, .count = O(n_params)},
-    {"board", 0, CLI_STRING, O(board), "FILE", "a board name in boards/ or a board.json (default: the build's -DWDR_BOARD)"},
+    {"board", 0, CLI_STRING, O(board), "NAME|FILE", "a board name or a board.json (default: the build's -DWDR_BOARD)",
+     .values = "@boards"},
     {"csv", 0, CLI_STRING, O(csv), "FILE", "the table as t_s,code,v_ref_V"},
     {"plot", 0, CLI_STRING, O(plot), "FILE.png", "V_ref(t) and the pixel's response (gnuplot)"},
     {"json", 0, CLI_FLAG, O(json), NULL, "print the operator, scene, sensor and worst error as JSON"},
@@ -81,7 +82,8 @@ static const cli_option lut_build_rows[] = {
     {"l-max", 0, CLI_DOUBLE, O(l_max), "X", "scene maximum luminance, cd/m2"},
     {"l-min", 0, CLI_DOUBLE, O(l_min), "X", "scene minimum luminance, cd/m2"},
     {"scene-image", 0, CLI_STRING, O(scene_image), "HDR", "take L_avg, L_max, L_min from an HDR image"},
-    {"scene", 0, CLI_STRING, O(scene), "FILE", "take the statistics from a scene file, as the sensor sees it"},
+    {"scene", 0, CLI_STRING, O(scene), "NAME|FILE", "take the statistics from a scene (a name or a file), as the sensor sees it",
+     .values = "@scenes"},
     {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A", "with --scene: auto (log-average to the ramp's key) or A per cd/m2"},
     {0}};
 #undef O
@@ -93,7 +95,8 @@ const cli_command wdrctl_cmd_lut_build = {
     lut_build_rows, cmd_lut_build, 0};
 
 static const cli_option lut_plots_rows[] = {
-    {"board", 0, CLI_STRING, offsetof(lut_plots_opts, board), "FILE", "a board name in boards/ or a board.json (default: the build's -DWDR_BOARD)"},
+    {"board", 0, CLI_STRING, offsetof(lut_plots_opts, board), "NAME|FILE",
+     "a board name or a board.json (default: the build's -DWDR_BOARD)", .values = "@boards"},
     {"outdir", 0, CLI_STRING, offsetof(lut_plots_opts, outdir), "DIR", "where vref_all.png and response_all.png go (default .)"},
     {0}};
 
@@ -121,10 +124,9 @@ static int parse_lut_opts(int argc, char **argv, lut_opts *o)
 
 static int load_board(const char *name, wdr_board *b)
 {
-    char path[1024], err[512];
-    wdr_board_path(name ? name : WDR_DEFAULT_BOARD, path, sizeof path);
+    char err[512];
     wdr_board_defaults(b);
-    int rc = wdr_board_load(path, b, err, sizeof err);
+    int rc = wdr_board_load_named(name ? name : WDR_DEFAULT_BOARD, b, err, sizeof err);
     if (rc)
         return wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_CONFIG, "%s", err);
     return EX_OK;
@@ -392,6 +394,8 @@ int cmd_lut_build(int argc, char **argv)
     static wdr_operator op; /* large: holds the user curve */
     lut_result r = {0};
     int rc = parse_lut_opts(argc, argv, &o);
+    if (rc == EX_OK)
+        rc = wdrctl_check_output("lut build", o.plot, ".png");
     if (rc == EX_OK)
         rc = load_board(o.board, &b);
     if (rc == EX_OK && o.dac_bits && (o.dac_bits < 4 || o.dac_bits > 16))

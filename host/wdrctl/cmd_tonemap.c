@@ -27,10 +27,11 @@ typedef struct tonemap_opts {
 #define O(f) offsetof(tonemap_opts, f)
 #define AGREE_LEVELS 8 /* display levels a capture may stray from the software image and still agree */
 static const cli_option tonemap_rows[] = {
-    {"scene", 0, CLI_STRING, O(scene), "FILE", "the scene (sim/scenes/*.json)", .flags = CLI_REQUIRED},
+    {"scene", 0, CLI_STRING, O(scene), "NAME|FILE", "the scene: a name (window) or a scene file", .flags = CLI_REQUIRED,
+     .values = "@scenes"},
     {"output", 'o', CLI_STRING, O(out), "SOFT.png", "the scene tone-mapped in software", .flags = CLI_REQUIRED},
-    {"board", 0, CLI_STRING, O(board), "FILE", "board: a name in boards/ or a board.json file"},
-    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (default reinhard)"},
+    {"board", 0, CLI_STRING, O(board), "NAME|FILE", "board: a name (sim-vga) or a board.json file", .values = "@boards"},
+    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (default reinhard)", .values = "@operators"},
     {"param", 0, CLI_LIST, O(params), "KEY=VALUE", "an operator parameter", .max = 16, .count = O(n_params)},
     {"scene-image", 0, CLI_STRING, O(scene_image), "HDR", "take L_avg, L_max, L_min from an HDR image"},
     {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A", "scene scale: auto (log-average to the ramp's key) or A per cd/m2"},
@@ -58,10 +59,9 @@ static int parse_tonemap(int argc, char **argv, tonemap_opts *o)
 
 static int load_inputs(const tonemap_opts *o, wdr_board *b, wdr_scene *sc, wdr_operator *op)
 {
-    char path[1024], err[512];
+    char err[512];
     wdr_board_defaults(b);
-    wdr_board_path(o->board ? o->board : WDR_DEFAULT_BOARD, path, sizeof path);
-    int rc = wdr_board_load(path, b, err, sizeof err);
+    int rc = wdr_board_load_named(o->board ? o->board : WDR_DEFAULT_BOARD, b, err, sizeof err);
     if (!rc)
         rc = wdr_scene_load_exposed(o->scene, b, &o->exposure, sc, err, sizeof err);
     if (!rc)
@@ -199,6 +199,10 @@ int cmd_tonemap(int argc, char **argv)
     wdr_scene sc = {0};
     static wdr_operator op;
     int rc = parse_tonemap(argc, argv, &o);
+    if (rc == EX_OK)
+        rc = wdrctl_check_output("tonemap", o.out, ".png");
+    if (rc == EX_OK)
+        rc = wdrctl_check_output("tonemap", o.side, ".png");
     if (rc == EX_OK && !o.capture != !o.side)
         rc = wdrctl_fail(EX_USAGE, "tonemap: --capture CAP.pfm and --side-by-side OUT.png go together");
     if (rc == EX_OK)
