@@ -473,9 +473,13 @@ int cmd_lut_plots(int argc, char **argv)
             continue;
         if (setup_operator(&o, &b, &op) == EX_OK && build_lut(&o, &b, &op, &r) == EX_OK) {
             ok[id] = write_plot_data(dir, o.op_name, &op, &r, &b) == EX_OK;
-            printf("%-18s entries %6u  t_int %.4g s  worst %.3f LSB%s\n", o.op_name, r.view.h.entry_count,
-                   (double)r.view.h.t_integration_ticks * r.view.h.tick_ps * 1e-12, r.worst_lsb,
-                   r.ramp.repaired ? "  (repaired to be realisable)" : "");
+            printf("%-18s entries %6u  t_int %.4g s  worst %.3f LSB", o.op_name, r.view.h.entry_count,
+                   (double)r.view.h.t_integration_ticks * r.view.h.tick_ps * 1e-12, r.worst_lsb);
+            if (r.ramp.repaired) /* say why the worst is large: the repair, not the table */
+                printf("  (repaired: over %.3g..%.3g A its ramp would have to fall, which a DAC ramp cannot; "
+                       "the response there moved by up to %.3f V, which is this worst)",
+                       r.ramp.bad_i_lo, r.ramp.bad_i_hi, r.ramp.repair_max_dev_v);
+            putchar('\n');
         }
         lut_result_free(&r);
     }
