@@ -9,11 +9,13 @@
 #include "wdr_scene.h"
 #include "wdrctl.h"
 #include <cJSON.h>
+#include <errno.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define RAMP_SAMPLES 8192
@@ -441,8 +443,11 @@ static int plot_all_script(const char *outdir, const char *dir, const int *ok)
         for (int id = 0; id < WDR_OP_COUNT; id++) {
             if (!ok[id])
                 continue;
-            n = snprintf(p, left, "'%s/%s.%s' using 1:2 with lines lw 2 title '%s' noenhanced, ", dir,
-                         wdr_operator_info_by_id(id)->name, panels[k], wdr_operator_info_by_id(id)->name);
+            /* one style per operator (plot.h): its own dashes, so curves that coincide
+             * (reinhard and reinhard_white over most of the range) both show */
+            n = snprintf(p, left, "'%s/%s.%s' using 1:2 with lines lw 2 %s title '%s' noenhanced, ", dir,
+                         wdr_operator_info_by_id(id)->name, panels[k], wdr_plot_style(id),
+                         wdr_operator_info_by_id(id)->name);
             p += n, left -= (size_t)n;
         }
         p[-2] = '\n', p[-1] = 0, p--, left++;
@@ -461,6 +466,8 @@ int cmd_lut_plots(int argc, char **argv)
     char dir[512];
     int ok[WDR_OP_COUNT] = {0};
     rc = load_board(po.board, &b);
+    if (rc == EX_OK && mkdir(outdir, 0755) && errno != EEXIST)
+        return wdrctl_fail(EX_CANTCREAT, "%s: cannot create the output directory (%s)", outdir, strerror(errno));
     if (rc == EX_OK && wdr_plot_tmpdir(dir, sizeof dir))
         return wdrctl_fail(EX_CANTCREAT, "cannot create a temporary directory for plot data");
     for (int id = 0; rc == EX_OK && id < WDR_OP_COUNT; id++) {

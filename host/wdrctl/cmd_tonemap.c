@@ -177,15 +177,17 @@ static int write_outputs(const tonemap_opts *o, int w, int h, const uint8_t *sof
 {
     char err[512];
     uint16_t *grey = malloc(sizeof *grey * (size_t)w * h);
-    uint8_t *rgb = cap ? malloc((size_t)3 * (2 * w + 4) * h) : NULL;
+    int side_w = WDR_SIDE_BY_SIDE_W(w), side_h = wdr_side_by_side_h(w, h);
+    uint8_t *rgb = cap ? malloc((size_t)3 * side_w * side_h) : NULL;
     int rc = grey && (!cap || rgb) ? WDR_OK : WDR_E_NOMEM;
     for (long i = 0; !rc && i < (long)w * h; i++)
         grey[i] = soft[i];
     if (!rc)
         rc = wdr_png_write_gray(o->out, grey, w, h, 8, err, sizeof err);
     if (!rc && cap) {
-        wdr_side_by_side(cap, soft, w, h, rgb);
-        rc = wdr_png_write_rgb(o->side, rgb, 2 * w + 4, h, err, sizeof err);
+        wdr_side_by_side(cap, soft, w, h, o->nominal ? "SENSOR (CORRECTED)" : "SENSOR (UNCORRECTED)", "SOFTWARE TONE MAP",
+                         rgb);
+        rc = wdr_png_write_rgb(o->side, rgb, side_w, side_h, err, sizeof err);
     }
     free(grey);
     free(rgb);
