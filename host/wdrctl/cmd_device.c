@@ -7,6 +7,7 @@
 #include "image_io.h"
 #include "transport.h"
 #include "transport_client.h"
+#include "v4l2_out.h"
 #include "wdr_cal.h"
 #include "wdr_err.h"
 #include "wdr_fw_config.h"
@@ -26,9 +27,9 @@
 /* ---- Options: one table per command, from rows shared by the device commands ------------------ */
 
 typedef struct dev_opts {
-    const char *device, *out;
-    int timeout_ms, retries, wait_ms, count, bits, raw, average, no_verify, negate, json;
-    double seconds;
+    const char *device, *out, *v4l2;
+    int timeout_ms, retries, wait_ms, count, bits, raw, average, no_verify, negate, json, v4l2_format;
+    double seconds, fps;
     int n_args;
     char **args; /* positional arguments after the options */
 } dev_opts;
@@ -50,9 +51,17 @@ static const cli_option capture_rows[] = {
     {"average", 0, CLI_FLAG, O(average), NULL, "one image, the mean of the N frames"},
     {"negate", 0, CLI_FLAG, O(negate), NULL, "brighter light looks brighter (the codes fall with light)"},
     {0}};
+static const cli_choice v4l2_formats[] = {{"grey", WDR_V4L2_GREY}, {"y16", WDR_V4L2_Y16}, {NULL, 0}};
 static const cli_option stream_rows[] = {
     ROW_COUNT("stop after N frames (default: Ctrl-C)"),
     {"seconds", 0, CLI_DOUBLE, O(seconds), "S", "stop after S seconds", .min = 0, .max = 1e9},
+    {"v4l2", 0, CLI_STRING, O(v4l2), "DEV",
+     "feed a V4L2 output device (v4l2loopback: /dev/videoN), or a file or pipe with the raw frames"},
+    {"format", 0, CLI_CHOICE, O(v4l2_format), NULL,
+     "with --v4l2: grey (8-bit display image, default) or y16 (16-bit corrected codes)", .choices = v4l2_formats,
+     .what = "V4L2 format"},
+    {"fps", 0, CLI_DOUBLE, O(fps), "F", "with --v4l2: frames per second announced (default: the board's frame time)",
+     .min = 0.001, .max = 1000},
     {0}};
 #undef O
 
@@ -681,6 +690,8 @@ typedef struct stream_job {
     const dev_opts *o;
     uint32_t frames;
     int64_t t0_ms;
+    wdr_v4l2_out *v4l2; /* --v4l2, or NULL */
+    int err;            /* sysexits of a failed V4L2 write */
 } stream_job;
 
 static int on_streamed(void *ctx, const wdr_frame *f)
@@ -696,6 +707,11 @@ static int on_streamed(void *ctx, const wdr_frame *f)
     }
     printf("frame %u  mean %.2f  min %u  max %u\n", f->end.frame, sum / (double)n, lo, hi);
     fflush(stdout);
+    char err[320];
+    if (s->v4l2 && wdr_v4l2_write(s->v4l2, f->codes, err, sizeof err) != WDR_OK) {
+        s->err = wdrctl_fail(EX_IOERR, "stream: %s: %s", s->o->v4l2, err);
+        return WDR_E_IO;
+    }
     s->frames++;
     double elapsed = (double)(wdr_transport_now_ms() - s->t0_ms) / 1000.0;
     if ((s->o->count > 0 && s->frames >= (uint32_t)s->o->count) || (s->o->seconds > 0 && elapsed >= s->o->seconds))
@@ -703,15 +719,60 @@ static int on_streamed(void *ctx, const wdr_frame *f)
     return WDR_OK;
 }
 
+/* Frames per second as num/den: --fps, else the board's last frame time (STATUS), else its
+ * integration and readout. */
+static void stream_rate(const dev_opts *o, wdrctl_conn *conn, uint32_t *num, uint32_t *den)
+{
+    wdr_status_report st;
+    const wdr_info *in = &conn->c->info;
+    uint64_t ns = 0;
+    if (wdr_client_status(conn->c, &st) == WDR_OK)
+        ns = st.frame_time_ns ? st.frame_time_ns : st.integration_ns + (uint64_t)in->row_time_ns * in->height;
+    if (o->fps > 0)
+        *num = (uint32_t)lround(o->fps * 1000), *den = 1000;
+    else if (ns)
+        *num = 1000000, *den = (uint32_t)((ns + 500) / 1000); /* microseconds per frame */
+    else
+        *num = 10, *den = 1;
+}
+
+static int open_v4l2(const dev_opts *o, wdrctl_conn *conn, wdr_v4l2_out *v)
+{
+    const wdr_info *in = &conn->c->info;
+    char err[512];
+    uint32_t num, den;
+    stream_rate(o, conn, &num, &den);
+    int rc = wdr_v4l2_open(v, o->v4l2, (wdr_v4l2_format)o->v4l2_format, in->width, in->height, in->adc_bits, num,
+                           den, err, sizeof err);
+    if (rc != WDR_OK)
+        return wdrctl_fail(rc == WDR_E_IO ? EX_CANTCREAT : rc == WDR_E_NOMEM ? EX_OSERR : EX_UNAVAILABLE, "stream: %s",
+                           err);
+    if (v->fps_num)
+        fprintf(stderr, "wdrctl: streaming %ux%u %s into %s at %.3g frames/s (%u bytes per line)%s\n", in->width,
+                in->height, wdr_v4l2_format_name(v->format), o->v4l2, (double)v->fps_num / v->fps_den,
+                v->bytesperline, v->is_device ? "" : ": raw frames, not a V4L2 device");
+    else
+        fprintf(stderr, "wdrctl: streaming %ux%u %s into %s (the device sets no frame rate)\n", in->width, in->height,
+                wdr_v4l2_format_name(v->format), o->v4l2);
+    return EX_OK;
+}
+
 int cmd_stream(int argc, char **argv)
 {
     dev_opts o;
     wdrctl_conn conn;
+    wdr_v4l2_out v4l2;
     int rc = parse_opts(argc, argv, &wdrctl_cmd_stream, &o);
+    if (rc == EX_OK && !o.v4l2 && (o.fps > 0 || o.v4l2_format))
+        rc = wdrctl_fail(EX_USAGE, "stream: --format and --fps go with --v4l2 DEV");
     if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
+    if (o.v4l2 && (rc = open_v4l2(&o, &conn, &v4l2)) != EX_OK) {
+        wdrctl_disconnect(&conn);
+        return rc;
+    }
     uint16_t *codes = malloc((size_t)conn.c->info.width * conn.c->info.height * sizeof *codes);
-    stream_job s = {.o = &o, .t0_ms = wdr_transport_now_ms()};
+    stream_job s = {.o = &o, .t0_ms = wdr_transport_now_ms(), .v4l2 = o.v4l2 ? &v4l2 : NULL};
     struct sigaction sa = {.sa_handler = on_signal}, old_int, old_term;
     sigaction(SIGINT, &sa, &old_int);
     sigaction(SIGTERM, &sa, &old_term);
@@ -720,8 +781,13 @@ int cmd_stream(int argc, char **argv)
     sigaction(SIGINT, &old_int, NULL);
     sigaction(SIGTERM, &old_term, NULL);
     double secs = (double)(wdr_transport_now_ms() - s.t0_ms) / 1000.0;
-    rc = r == WDR_OK ? EX_OK : r == WDR_E_NOMEM ? wdrctl_fail(EX_OSERR, "out of memory") : wdrctl_conn_fail(&conn, r);
+    rc = s.err != EX_OK ? s.err
+         : r == WDR_OK  ? EX_OK
+         : r == WDR_E_NOMEM ? wdrctl_fail(EX_OSERR, "out of memory")
+                           : wdrctl_conn_fail(&conn, r);
     fprintf(stderr, "wdrctl: %u frames in %.2f s (%.1f frames/s)\n", s.frames, secs, secs > 0 ? s.frames / secs : 0.0);
+    if (s.v4l2)
+        wdr_v4l2_close(s.v4l2);
     free(codes);
     wdrctl_disconnect(&conn);
     return rc;
