@@ -4,7 +4,7 @@
 WDR_PACKAGES="build-essential cmake pkg-config libcjson-dev libpng-dev libstb-dev libopenexr-dev \
 libcmocka-dev libusb-1.0-0-dev libgpiod-dev gnuplot-nox gcc-arm-none-eabi libnewlib-arm-none-eabi \
 clang-tidy cppcheck groff-base strace qemu-system-arm \
-qemu-system-x86 busybox-static cpio kmod clang-14 libclang-rt-14-dev"
+qemu-system-x86 busybox-static cpio kmod v4l-utils clang-14 libclang-rt-14-dev"
 # tests/vm also fetches Debian's current kernel and its headers itself (apt-get download into the
 # build folder, no install), and builds its module with the kernel's compiler (gcc-12).
 

@@ -249,6 +249,7 @@ else
     run lut_survives_restart upload_survives_restart lut $LUT LUT
     run capture_pixels capture_check raw
     run stream check_stream
+    [ -f /v4l2/checks.sh ] && . /v4l2/checks.sh # tests/vm/v4l2: wdrctl stream --v4l2 read by v4l2-ctl
     run cal_survives_restart upload_survives_restart cal $CAL calibration
     run capture_calibrated capture_check calibrated $CAL_GAIN
     run model_counters counters_zero

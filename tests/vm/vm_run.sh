@@ -3,7 +3,7 @@
 # initramfs with busybox, the programs and their libraries, then one qemu-system-x86_64 boot
 # under TCG that runs vm_init.sh. Writes OUT_DIR/results.txt (one "name PASS|FAIL detail" line
 # per check, read by vm_check.sh) and OUT_DIR/console.log.
-#   vm_run.sh SOURCE_DIR OUT_DIR WDR_BOARD WDRCTL VM_BOARD_MODEL VM_USBPROBE
+#   vm_run.sh SOURCE_DIR OUT_DIR WDR_BOARD WDRCTL VM_BOARD_MODEL VM_USBPROBE [V4L2_COMPARE]
 # Exit 77 (CTest skip) with the reason when the machine lacks something the VM needs.
 set -euo pipefail
 src=$1 out=$2
@@ -23,6 +23,7 @@ abi=$("$src/tests/vm/vm_prepare.sh" "$out/cache" "$src") || rc=$?
 [ $rc = 77 ] && skip "kernel or headers unavailable (see above)"
 [ $rc = 0 ] || exit $rc
 kdir=$out/cache/$abi
+"$src/tests/vm/v4l2/prepare.sh" "$kdir" "$abi" || echo "vm_run: no v4l2loopback: the V4L2 checks will say SKIP" >&2
 
 # Tables: a LUT built for the board's geometry, a calibration of gain 2 and a per-pixel offset.
 cal_gain=2
@@ -46,6 +47,7 @@ done
 cp "$kdir"/modules/*.ko "$root/lib/modules/"
 cp "$kdir/modules.order" "$root/lib/modules/order"
 cp "$out/test.lut" "$out/test.cal" "$root/data/"
+"$src/tests/vm/v4l2/stage.sh" "$root" "$kdir" "${7:-/nonexistent/v4l2_compare}"
 # 32 MiB of NOR-like flash in 64 KiB blocks: two LUT and two calibration slots of a VGA board.
 printf 'CAL_GAIN=%s\nMTD_KIB=32768\nMTD_ERASE_KIB=64\n' $cal_gain >"$root/data/params.env"
 (cd "$root" && find . | cpio -o -H newc --quiet) >"$out/initramfs.cpio"
