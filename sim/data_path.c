@@ -129,6 +129,8 @@ void wdr_data_names(wdr_data_kind k, const char *sep, char *out, int outlen)
 void wdr_data_unknown(wdr_data_kind k, const char *name, char *out, int outlen)
 {
     char dir[4096], names[2048];
+    const char *env = getenv(env_of[k]); /* one read: it cannot change between the tests */
+    int from_env = env && *env;
     wdr_data_dir(k, dir, sizeof dir);
     wdr_data_names(k, ", ", names, sizeof names);
     if (!dir[0])
@@ -136,8 +138,7 @@ void wdr_data_unknown(wdr_data_kind k, const char *name, char *out, int outlen)
                  what_of[k], name, sub_of[k], env_of[k]);
     else
         snprintf(out, (size_t)outlen, "unknown %s '%s' (known: %s; in %s%s%s)", what_of[k], name,
-                 names[0] ? names : "none", dir, getenv(env_of[k]) && *getenv(env_of[k]) ? ", set by " : "",
-                 getenv(env_of[k]) && *getenv(env_of[k]) ? env_of[k] : "");
+                 names[0] ? names : "none", dir, from_env ? ", set by " : "", from_env ? env_of[k] : "");
 }
 
 int wdr_data_print_names(FILE *f, const char *kind)
