@@ -96,9 +96,10 @@ int wdr_plot_floored_series(char *script, size_t cap, const char *data, int col,
                     s->point, title, data, col, floor, floor, s->colour);
 }
 
-int wdr_plot_floor_key(char *script, size_t cap, double floor)
+int wdr_plot_floor_key(char *script, size_t cap, double floor, const char *unit)
 {
-    return snprintf(script, cap, ", NaN w p pt 11 ps 1.4 lc rgb 'black' t 'below %g: drawn at the floor'", floor);
+    return snprintf(script, cap, ", NaN w p pt 11 ps 1.4 lc rgb 'black' t 'below %g%s%s: drawn at the floor'", floor,
+                    unit[0] ? " " : "", unit);
 }
 
 int wdr_plot_tmpdir(char *out, int outlen)

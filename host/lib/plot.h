@@ -22,8 +22,9 @@ const char *wdr_plot_style(int k);
 int wdr_plot_floored_series(char *script, size_t cap, const char *data, int col, int k, const char *title,
                             double floor);
 
-/* The key entry that says what the down-triangle means. @return the characters written */
-int wdr_plot_floor_key(char *script, size_t cap, double floor);
+/* The key entry that says what the down-triangle means ("below 0.01 %: drawn at the floor");
+ * unit follows the value ("" for none). @return the characters written */
+int wdr_plot_floor_key(char *script, size_t cap, double floor, const char *unit);
 
 /* A fresh private directory for plot data; out gets its path. @retval WDR_OK, WDR_E_IO */
 int wdr_plot_tmpdir(char *out, int outlen);

@@ -209,7 +209,7 @@ static int condition_panel(const report *rp, int c, const char *data, char *scri
         n += wdr_plot_floored_series(script + n, cap - (size_t)n, data, base + 3 + 2 * i, rp->models[i], title,
                                      CONTRAST_FLOOR_PCT);
     }
-    n += wdr_plot_floor_key(script + n, cap - (size_t)n, CONTRAST_FLOOR_PCT);
+    n += wdr_plot_floor_key(script + n, cap - (size_t)n, CONTRAST_FLOOR_PCT, "%");
     return n + snprintf(script + n, cap - (size_t)n, "\n");
 }
 
