@@ -29,11 +29,11 @@ static void reply_status(wdr_fw *fw, const wdr_packet *pkt, int status)
 
 
 /* A retry of the request answered last: resend the answer, do not execute it twice.
- * INFO and STATUS only read, so they always run (a new host may reuse a number). */
+ * INFO, STATUS and FW_STATUS only read, so they always run (a new host may reuse a number). */
 static int resend_if_retry(wdr_fw *fw, const wdr_packet *pkt)
 {
     if (!fw->last_response_len || pkt->h.seq != fw->last_seq || pkt->h.opcode != fw->last_opcode ||
-        pkt->h.opcode == WDR_CMD_INFO || pkt->h.opcode == WDR_CMD_STATUS)
+        pkt->h.opcode == WDR_CMD_INFO || pkt->h.opcode == WDR_CMD_STATUS || pkt->h.opcode == WDR_CMD_FW_STATUS)
         return 0;
     uint8_t *p = wdr_fw_tx_reserve(fw);
     memcpy(p, fw->last_response, fw->last_response_len);
@@ -67,6 +67,7 @@ static void cmd_info(wdr_fw *fw, const wdr_packet *pkt)
     in.cal_capacity = fw->boot_err ? 0 : fw->store.slot[1][0].capacity;
     in.row_time_ns = fw->board.row_time_ns;
     memcpy(in.name, fw->board.name, sizeof in.name);
+    wdr_fw_update_info(fw, &in);
     wdr_info_pack(&in, out);
     int same = wdr_get_u16(pkt->payload) == WDR_PROTO_VERSION_MAJOR;
     /* A new host session (1.1): the last host left without stopping what it started (a killed
@@ -75,6 +76,7 @@ static void cmd_info(wdr_fw *fw, const wdr_packet *pkt)
         (wdr_get_u32(pkt->payload + 4) & WDR_INFO_FLAG_NEW_SESSION)) {
         wdr_fw_frame_stop(fw);
         wdr_store_abort(&fw->store);
+        wdr_fw_update_abort(fw);
     }
     wdr_fw_reply(fw, &pkt->h, same ? WDR_ST_OK : WDR_ST_BAD_VERSION, out, sizeof out);
 }
@@ -113,6 +115,8 @@ static void cmd_begin(wdr_fw *fw, const wdr_packet *pkt)
     if (!st && len == 0)
         st = WDR_ST_BAD_LENGTH;
     if (!st)
+        wdr_fw_update_abort(fw); /* one upload at a time: a BEGIN restarts it */
+    if (!st)
         st = wdr_status_from_err(wdr_store_begin(&fw->store, kind, active_slot(fw, kind), len,
                                                  wdr_get_u32(pkt->payload + 4)));
     reply_status(fw, pkt, st);
@@ -121,6 +125,8 @@ static void cmd_begin(wdr_fw *fw, const wdr_packet *pkt)
 static void cmd_chunk(wdr_fw *fw, const wdr_packet *pkt)
 {
     int st = upload_gate(fw, pkt, WDR_CHUNK_OFFSET_SIZE + 1u, WDR_PROTO_MAX_PAYLOAD);
+    if (!st && wdr_fw_update_open(fw))
+        st = WDR_ST_BAD_KIND; /* an image upload is open */
     if (!st)
         st = wdr_status_from_err(wdr_store_chunk(&fw->store, kind_of(pkt->h.opcode), wdr_get_u32(pkt->payload),
                                                  pkt->payload + WDR_CHUNK_OFFSET_SIZE,
@@ -157,6 +163,8 @@ static void cmd_commit(wdr_fw *fw, const wdr_packet *pkt)
     int st = upload_gate(fw, pkt, 0, 0);
     if (!st && wdr_fw_busy(fw))
         st = WDR_ST_BUSY;
+    if (!st && wdr_fw_update_open(fw))
+        st = WDR_ST_BAD_KIND; /* an image upload is open */
     if (!st)
         st = wdr_status_from_err(commit_upload(fw, kind_of(pkt->h.opcode), &c));
     if (st) {
@@ -251,6 +259,7 @@ static void cmd_abort(wdr_fw *fw, const wdr_packet *pkt)
 {
     wdr_fw_frame_stop(fw);
     wdr_store_abort(&fw->store);
+    wdr_fw_update_abort(fw);
     reply_status(fw, pkt, WDR_ST_OK);
 }
 
@@ -306,6 +315,13 @@ static cmd_fn handler_for(uint8_t opcode)
     case WDR_CMD_CAPTURE: return cmd_capture;
     case WDR_CMD_STREAM: return cmd_stream;
     case WDR_CMD_ABORT: return cmd_abort;
+    case WDR_CMD_FW_BEGIN: return wdr_fw_cmd_fw_begin;
+    case WDR_CMD_FW_CHUNK: return wdr_fw_cmd_fw_chunk;
+    case WDR_CMD_FW_COMMIT: return wdr_fw_cmd_fw_commit;
+    case WDR_CMD_FW_STATUS: return wdr_fw_cmd_fw_status;
+    case WDR_CMD_FW_CONFIRM: return wdr_fw_cmd_fw_confirm;
+    case WDR_CMD_FW_REVERT: return wdr_fw_cmd_fw_revert;
+    case WDR_CMD_REBOOT: return wdr_fw_cmd_reboot;
     case WDR_CMD_SIM_SET_ILLUMINANT: return cmd_illuminant;
     default: return NULL;
     }

@@ -25,6 +25,7 @@ int wdr_fw_init(wdr_fw *fw)
         fw->boot_err = wdr_store_init(&fw->store, &id, WDR_FW_LUT_MAX_BYTES);
     }
     wdr_fw_tables_boot(fw);
+    wdr_fw_update_boot(fw);
     return fw->boot_err;
 }
 
@@ -50,12 +51,20 @@ int wdr_fw_task(wdr_fw *fw)
 {
     int worked = 0;
     hal_event ev;
+    hal_watchdog_feed(); /* a loop that stops coming here is a hang: the watchdog resets the board */
     while (hal_event_poll(&ev)) {
         dispatch(fw, &ev);
         worked = 1;
+        /* REBOOT's answer has just left: reset before the link is polled again, as a real
+         * board vanishes from the bus (a host reconnecting must meet the new boot) */
+        if (wdr_fw_reboot_service(fw))
+            return 0;
     }
-    worked |= wdr_fw_rx_service(fw);
+    if (!fw->reboot_due) /* resetting: a request now would be answered by a board about to vanish */
+        worked |= wdr_fw_rx_service(fw);
     worked |= wdr_fw_frame_step(fw);
+    if (wdr_fw_reboot_service(fw))
+        return 0; /* the answer was dropped (no host): reset all the same */
     return worked;
 }
 
@@ -65,12 +74,12 @@ void wdr_fw_status(const wdr_fw *fw, wdr_status_report *r)
     r->state = fw->state;
     r->lut_slot = fw->lut_slot < 0 ? WDR_SLOT_NONE : (uint8_t)fw->lut_slot;
     r->cal_slot = fw->cal_slot < 0 ? WDR_SLOT_NONE : (uint8_t)fw->cal_slot;
-    r->upload_kind = fw->store.up_kind;
+    r->upload_kind = wdr_fw_update_open(fw) ? (uint8_t)WDR_KIND_FW : fw->store.up_kind;
     r->lut_seq = fw->lut_slot < 0 ? 0 : fw->store.slot[0][fw->lut_slot].seq;
     r->cal_seq = fw->cal_slot < 0 ? 0 : fw->store.slot[1][fw->cal_slot].seq;
     r->lut_crc = fw->lut_slot < 0 ? 0 : fw->store.slot[0][fw->lut_slot].crc;
     r->cal_crc = fw->cal_slot < 0 ? 0 : fw->store.slot[1][fw->cal_slot].crc;
-    r->upload_received = fw->store.up_received;
+    r->upload_received = wdr_fw_update_open(fw) ? fw->img_up.received : fw->store.up_received;
     r->frames = fw->frame_no;
     r->integration_ns = fw->expo_auto ? 0 : fw->integration_ns;
     r->tick_ps = fw->expo_auto ? fw->expo_tick_ps : fw->lut_slot >= 0 ? fw->lut.h.tick_ps : 0;

@@ -28,4 +28,19 @@ bool wdr_fw_busy(const wdr_fw *fw);
 void wdr_fw_frame_event(wdr_fw *fw, const hal_event *ev);
 int wdr_fw_set_integration(wdr_fw *fw, uint32_t ns);
 
+/* Firmware images (fw_update.c): the image flash and the boot record at boot, the FW_* and
+ * REBOOT requests, INFO's image fields, and the reset once REBOOT's answer has left. */
+void wdr_fw_update_boot(wdr_fw *fw);
+void wdr_fw_update_abort(wdr_fw *fw);
+bool wdr_fw_update_open(const wdr_fw *fw);
+void wdr_fw_update_info(const wdr_fw *fw, wdr_info *in);
+void wdr_fw_cmd_fw_begin(wdr_fw *fw, const wdr_packet *pkt);
+void wdr_fw_cmd_fw_chunk(wdr_fw *fw, const wdr_packet *pkt);
+void wdr_fw_cmd_fw_commit(wdr_fw *fw, const wdr_packet *pkt);
+void wdr_fw_cmd_fw_status(wdr_fw *fw, const wdr_packet *pkt);
+void wdr_fw_cmd_fw_confirm(wdr_fw *fw, const wdr_packet *pkt);
+void wdr_fw_cmd_fw_revert(wdr_fw *fw, const wdr_packet *pkt);
+void wdr_fw_cmd_reboot(wdr_fw *fw, const wdr_packet *pkt);
+int wdr_fw_reboot_service(wdr_fw *fw);
+
 #endif

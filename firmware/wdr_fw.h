@@ -12,6 +12,7 @@
 #ifndef WDR_FW_H
 #define WDR_FW_H
 #include "hal.h"
+#include "wdr_boot.h"
 #include "wdr_cal.h"
 #include "wdr_fw_config.h"
 #include "wdr_lut.h"
@@ -84,6 +85,18 @@ typedef struct wdr_fw {
     uint32_t expo_min_step_ticks; /* shortest DAC step of the active LUT, in its ticks */
     int32_t expo_frame_sum;       /* sum of row means of the frame being read */
     uint16_t expo_rows;
+
+    /* Firmware images (fw_update.c): the image flash, the upload into the slot not running,
+     * and what the bootloader passed to this boot */
+    bool img_ok;                  /* the image flash answered with a usable layout */
+    wdr_boot_flash img_flash;     /* hal_image_flash_* */
+    wdr_boot_layout img_layout;
+    wdr_boot_upload img_up;       /* slot -1: no upload */
+    uint32_t img_crc;             /* CRC-32 of the chunks accepted so far */
+    bool booted;                  /* boot_rec holds the bootloader's record */
+    wdr_boot_record boot_rec;
+    bool reboot_due;              /* REBOOT answered: reset once the answer has left */
+    bool reverted;                /* FW_REVERT done: the other slot is the next boot, uploads wait */
 } wdr_fw;
 
 /* Start from whatever flash holds: read the board, check every stored table, activate the

@@ -44,6 +44,12 @@
 #ifndef WDR_FW_EXPO_DAMP_SHIFT
 #define WDR_FW_EXPO_DAMP_SHIFT 1     /* auto exposure corrects 1/2^shift of the measured error per frame */
 #endif
+#ifndef WDR_FW_IMAGE_LOAD_LO
+#define WDR_FW_IMAGE_LOAD_LO 0x00000000u /* uploaded images must load within [LO, HI): a board's */
+#endif
+#ifndef WDR_FW_IMAGE_LOAD_HI
+#define WDR_FW_IMAGE_LOAD_HI 0xffffffffu /* config narrows it to its application RAM (hal/mps2) */
+#endif
 #ifndef WDR_FW_RESET_NS
 #define WDR_FW_RESET_NS 2000u        /* reset pulse: settles N1 through M1 */
 #endif
@@ -79,6 +85,9 @@
 #if WDR_PROTO_HEADER_SIZE + WDR_INFO_SIZE > WDR_FW_RESPONSE_MAX || \
     WDR_PROTO_HEADER_SIZE + WDR_STATUS_SIZE > WDR_FW_RESPONSE_MAX
 #error "WDR_FW_RESPONSE_MAX must hold every response"
+#endif
+#if WDR_FW_IMAGE_LOAD_LO >= WDR_FW_IMAGE_LOAD_HI
+#error "WDR_FW_IMAGE_LOAD_LO must be below WDR_FW_IMAGE_LOAD_HI"
 #endif
 #if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "ROW payloads are filled in place with native uint16: little-endian targets only"

@@ -79,7 +79,9 @@ void wdr_image_header_pack(const wdr_image_header *h, uint8_t *out)
     wdr_put_u32(out + 20, h->version.build);
     wdr_put_u32(out + 24, h->security_counter);
     wdr_put_u32(out + 28, h->flags);
-    size_t n = strnlen(h->board, WDR_IMAGE_BOARD_MAX - 1);
+    size_t n = 0; /* strnlen is POSIX, not in the Cortex-M7 build's C library headers */
+    while (n < WDR_IMAGE_BOARD_MAX - 1 && h->board[n])
+        n++;
     memcpy(out + OFF_BOARD, h->board, n);
 }
 

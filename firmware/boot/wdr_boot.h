@@ -81,7 +81,8 @@ typedef struct wdr_boot_slot {
     uint8_t state;           /* enum wdr_slot_state */
     uint8_t attempts;        /* ATTEMPT records */
     uint8_t reject_reason;   /* enum wdr_boot_reject, when REJECTED */
-    int verify_err;          /* WDR_OK, or why the image fails (wdr_image_verify's codes) */
+    int verify_err;          /* WDR_OK, or why the image fails (wdr_image_verify's codes);
+                                WDR_E_STATE: not verified (EMPTY, INCOMPLETE, REJECTED) */
     bool has_header;         /* hdr parsed */
     wdr_image_header hdr;
     uint8_t sha256[WDR_SHA256_SIZE]; /* from the trailer, when it parsed */
@@ -89,7 +90,9 @@ typedef struct wdr_boot_slot {
 } wdr_boot_slot;
 
 /* Read one slot: its log and a full verification of its image against pol and the floor.
- * @retval WDR_OK (whatever the state)  @retval WDR_E_IO  @retval WDR_E_POWER */
+ * A slot whose log says it never boots (INCOMPLETE, REJECTED) is not verified, only its header
+ * and trailer parsed (hdr, sha256 for fw status), so a boot costs one verification per
+ * bootable slot. @retval WDR_OK (whatever the state)  @retval WDR_E_IO  @retval WDR_E_POWER */
 int wdr_boot_slot_read(const wdr_boot_flash *f, const wdr_boot_layout *l, int slot,
                        const wdr_boot_policy *pol, uint32_t floor, wdr_boot_slot *out);
 
@@ -135,8 +138,10 @@ typedef struct wdr_boot_decision {
  * gets REJECTED (unconfirmed); otherwise the valid CONFIRMED slot of the newest version runs
  * (slot A on a tie). A slot whose log says bootable but whose image fails gets REJECTED
  * (invalid). Every record is written before the decision is returned, so a cut at any point
- * repeats a decision that is at least as safe.
- * @retval WDR_OK (see out->slot)  @retval WDR_E_IO  @retval WDR_E_POWER */
+ * repeats a decision that is at least as safe. A record the flash refuses (log full, a program
+ * failing with WDR_E_IO) makes it more careful, never fails it: that slot is not test-booted or
+ * is passed over, and a floor raise that fails is left to the next boot.
+ * @retval WDR_OK (see out->slot)  @retval WDR_E_IO a read failed  @retval WDR_E_POWER */
 int wdr_boot_decide(const wdr_boot_flash *f, const wdr_boot_layout *l, const wdr_boot_policy *pol,
                     wdr_boot_decision *out);
 
@@ -158,7 +163,8 @@ int wdr_boot_upload_begin(const wdr_boot_flash *f, const wdr_boot_layout *l, wdr
 
 /* Program the next n bytes at offset (erasing each block just before its first byte).
  * @retval WDR_OK  @retval WDR_E_SEQUENCE none in progress or offset != received
- * @retval WDR_E_TOO_LARGE past len  @retval WDR_E_IO  @retval WDR_E_POWER */
+ * @retval WDR_E_TOO_LARGE past len (both leave the upload open at u->received)
+ * @retval WDR_E_IO  @retval WDR_E_POWER (the upload ends: begin again) */
 int wdr_boot_upload_chunk(const wdr_boot_flash *f, const wdr_boot_layout *l, wdr_boot_upload *u, uint32_t offset,
                           const uint8_t *data, uint32_t n);
 
@@ -199,7 +205,7 @@ typedef struct wdr_boot_record {
     uint8_t testing;         /* 1: a test boot, confirm it or it reverts */
     uint8_t reset_cause;     /* enum wdr_reset_cause of the reset that led here */
     uint8_t attempts;        /* test boots so far, this one included */
-    uint32_t fault_pc;       /* WDR_RESET_FAULT: stacked PC of the fault */
+    uint32_t fault_pc;       /* WDR_RESET_FAULT: stacked PC of the fault (WATCHDOG: where it hung) */
     uint32_t fault_status;   /* WDR_RESET_FAULT: CFSR (or 0 where none) */
     uint32_t boots;          /* resets since power-on */
     uint32_t floor;          /* security counter floor at boot */
@@ -208,9 +214,17 @@ typedef struct wdr_boot_record {
     uint32_t crc;            /* CRC-32 of everything before it */
 } wdr_boot_record;
 
-/* Seal / check a record's CRC and magic. */
+/* Seal / check a record's CRC and magic. The writer memsets the record to 0 before filling it
+ * (the CRC covers its padding bytes too). */
 void wdr_boot_record_seal(wdr_boot_record *r);
 bool wdr_boot_record_ok(const wdr_boot_record *r);
+
+/* ---- The key this build trusts (-DWDR_SIGNING_KEY, firmware/boot/wdr_boot_key.cmake) -------- */
+
+/* The embedded public key, WDR_P256_PUBKEY_SIZE bytes (0x04 || X || Y): pol->pubkey. */
+const uint8_t *wdr_boot_key(void);
+/* true when it is the tree's development key: NOT FOR PRODUCTION (fw status says so). */
+bool wdr_boot_key_is_dev(void);
 
 /* Short English names, for messages and fw status. */
 const char *wdr_slot_state_name(int state);

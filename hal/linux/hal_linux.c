@@ -1,5 +1,6 @@
 /* Real board on embedded Linux, core: identity, events, time, the sensor control lines
- * (libgpiod 1.x, Debian 12's 1.6), ramp playback to the DAC and the column ADC (spidev).
+ * (hal_linux_lines.c), ramp playback to the DAC and the column ADC (spidev), and the order of
+ * bring-up and shutdown. The board is data (hal_linux_board.h), set before hal_init.
  *
  * Threads stand in for interrupts: they only post events (an eventfd wakes the task loop).
  * Ramp playback from user space has tens of microseconds of jitter: good for bring-up; a
@@ -8,7 +9,6 @@
 #include "hal_linux_internal.h"
 #include <errno.h>
 #include <fcntl.h>
-#include <gpiod.h>
 #include <linux/spi/spidev.h>
 #include <poll.h>
 #include <stdio.h>
@@ -21,8 +21,6 @@
 #include <time.h>
 #include <unistd.h>
 
-#define N_LINES (3u + HAL_LINUX_ROW_ADDR_BITS)
-enum { LINE_RESET, LINE_ROW_SELECT, LINE_ADC_CONVERT, LINE_ROW_ADDR0 };
 
 static struct {
     pthread_mutex_t lock;
@@ -30,43 +28,25 @@ static struct {
     int wake_fd, timer_fd;
     uint64_t t0_ns;
     int dac_fd, adc_fd;
-    int values[N_LINES];
+    int values[LX_MAX_LINES];
     int row_selected, converted;
-    uint16_t row[HAL_LINUX_WIDTH];
+    uint16_t row[HAL_LINUX_MAX_WIDTH];
     pthread_t ramp_thread;
     int ramp_running;
     atomic_int ramp_abort, ramp_playing;
     const wdr_lut_view *lut;
 } L = {.lock = PTHREAD_MUTEX_INITIALIZER, .wake_fd = -1, .timer_fd = -1, .dac_fd = -1, .adc_fd = -1};
 
-/* ---- GPIO (libgpiod 1.x: the build stops on 2.x, see CMakeLists.txt) ----------------------- */
+/* ---- The board ------------------------------------------------------------------------------ */
 
-static struct gpiod_chip *gpio_chip;
-static struct gpiod_line_bulk gpio_bulk;
+static lx_board board;
+_Static_assert(sizeof board.name == HAL_BOARD_NAME_MAX, "a board name is hal_board_info's");
+static const lx_board *B = &board;
 
-static unsigned line_offsets(unsigned i)
-{
-    static const unsigned fixed[3] = {HAL_LINUX_LINE_RESET, HAL_LINUX_LINE_ROW_SELECT, HAL_LINUX_LINE_ADC_CONVERT};
-    return i < 3 ? fixed[i] : HAL_LINUX_LINE_ROW_ADDR0 + (i - 3);
-}
+void lx_board_use(const lx_board *b) { board = *b; }
+const lx_board *lx_board_get(void) { return B; }
 
-static int gpio_open(void)
-{
-    unsigned offsets[N_LINES];
-    int zeros[N_LINES] = {0};
-    for (unsigned i = 0; i < N_LINES; i++)
-        offsets[i] = line_offsets(i);
-    gpio_chip = gpiod_chip_open(HAL_LINUX_GPIOCHIP);
-    if (!gpio_chip)
-        return lx_fail("gpiod_chip_open", HAL_LINUX_GPIOCHIP);
-    if (gpiod_chip_get_lines(gpio_chip, offsets, N_LINES, &gpio_bulk) != 0)
-        return lx_fail("gpiod_chip_get_lines (reset, row select, convert, row address)", HAL_LINUX_GPIOCHIP);
-    if (gpiod_line_request_bulk_output(&gpio_bulk, "wdrcam", zeros) != 0)
-        return lx_fail("gpiod_line_request_bulk_output", HAL_LINUX_GPIOCHIP);
-    return WDR_OK;
-}
-
-static int gpio_write(void) { return gpiod_line_set_value_bulk(&gpio_bulk, L.values) == 0 ? WDR_OK : WDR_E_IO; }
+static int gpio_write(void) { return lx_lines_set(L.values); }
 
 /* ---- Bring-up errors ----------------------------------------------------------------------- */
 
@@ -154,25 +134,59 @@ void hal_timer_arm(uint64_t deadline_ns)
 /* ---- Init and identity --------------------------------------------------------------------- */
 
 /* A spidev node set to mode 0, 8-bit words and the board's clock; -1 with the error recorded. */
-static int spi_open(const char *path)
+static int spi_open(const lx_spi_ref *spi)
 {
-    int fd = open(path, O_RDWR | O_CLOEXEC);
+    int fd = open(spi->path, O_RDWR | O_CLOEXEC);
     if (fd < 0) {
-        lx_fail("open", path);
+        lx_fail("open", spi->path);
         return -1;
     }
-    uint32_t hz = HAL_LINUX_SPI_HZ;
+    uint32_t hz = spi->speed_hz;
     uint8_t bits = 8, mode = SPI_MODE_0;
     const char *call = ioctl(fd, SPI_IOC_WR_MODE, &mode) < 0                ? "ioctl SPI_IOC_WR_MODE"
                        : ioctl(fd, SPI_IOC_WR_BITS_PER_WORD, &bits) < 0   ? "ioctl SPI_IOC_WR_BITS_PER_WORD"
                        : ioctl(fd, SPI_IOC_WR_MAX_SPEED_HZ, &hz) < 0      ? "ioctl SPI_IOC_WR_MAX_SPEED_HZ"
                                                                          : NULL;
     if (call) {
-        lx_fail(call, path);
+        lx_fail(call, spi->path);
         close(fd);
         return -1;
     }
     return fd;
+}
+
+static void close_fd(int *fd)
+{
+    if (*fd >= 0)
+        close(*fd);
+    *fd = -1;
+}
+
+int lx_spi_fd(int adc) { return adc ? L.adc_fd : L.dac_fd; }
+
+/* The converters, the control lines (all low) and the table flash: everything but USB. */
+int lx_devices_open(void)
+{
+    L.dac_fd = spi_open(&B->dac);
+    if (L.dac_fd < 0)
+        return WDR_E_IO;
+    L.adc_fd = spi_open(&B->adc);
+    if (L.adc_fd < 0)
+        return WDR_E_IO;
+    memset(L.values, 0, sizeof L.values);
+    if (lx_lines_open(B) != WDR_OK)
+        return WDR_E_IO;
+    if (gpio_write() != WDR_OK)
+        return lx_fail("gpio line set", lx_lines_chip());
+    return lx_flash_init();
+}
+
+void lx_devices_close(void)
+{
+    lx_flash_close();
+    lx_lines_close();
+    close_fd(&L.dac_fd);
+    close_fd(&L.adc_fd);
 }
 
 int hal_init(void)
@@ -185,31 +199,44 @@ int hal_init(void)
     L.timer_fd = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK);
     if (L.timer_fd < 0)
         return lx_fail("timerfd_create", "CLOCK_MONOTONIC");
-    L.dac_fd = spi_open(HAL_LINUX_SPI_DAC);
-    if (L.dac_fd < 0)
-        return WDR_E_IO;
-    L.adc_fd = spi_open(HAL_LINUX_SPI_ADC);
-    if (L.adc_fd < 0)
-        return WDR_E_IO;
-    if (gpio_open() != WDR_OK)
-        return WDR_E_IO;
-    if (gpio_write() != WDR_OK)
-        return lx_fail("gpiod_line_set_value_bulk", HAL_LINUX_GPIOCHIP);
-    if (lx_flash_init() != WDR_OK || lx_usb_init() != WDR_OK)
+    if (lx_devices_open() != WDR_OK || lx_usb_init() != WDR_OK)
         return WDR_E_IO;
     return WDR_OK;
+}
+
+void lx_wake_from_signal(void)
+{
+    uint64_t one = 1;
+    if (L.wake_fd >= 0 && write(L.wake_fd, &one, sizeof one) < 0) {
+        /* saturated: the loop is awake anyway */
+    }
+}
+
+/* The ramp first (no DAC word after this), then the gadget's endpoints (the kernel unbinds the
+ * UDC when ep0 closes), then the lines back low and the devices closed. The flash needs nothing:
+ * each HAL flash call completes before it returns, so between two firmware tasks it is whole. */
+void lx_shutdown(void)
+{
+    hal_ramp_stop();
+    lx_usb_close();
+    memset(L.values, 0, sizeof L.values);
+    if (L.dac_fd >= 0)
+        gpio_write();
+    lx_devices_close();
+    close_fd(&L.timer_fd);
+    close_fd(&L.wake_fd);
 }
 
 int hal_board_info_get(hal_board_info *out)
 {
     memset(out, 0, sizeof *out);
-    out->sensor_id = HAL_LINUX_SENSOR_ID;
-    out->width = HAL_LINUX_WIDTH;
-    out->height = HAL_LINUX_HEIGHT;
-    out->adc_bits = HAL_LINUX_ADC_BITS;
-    out->dac_bits = HAL_LINUX_DAC_BITS;
-    out->row_time_ns = HAL_LINUX_ROW_TIME_NS;
-    strncpy(out->name, HAL_LINUX_BOARD_NAME, sizeof out->name - 1);
+    out->sensor_id = B->sensor_id;
+    out->width = B->width;
+    out->height = B->height;
+    out->adc_bits = B->adc_bits;
+    out->dac_bits = B->dac_bits;
+    out->row_time_ns = B->row_time_ns;
+    memcpy(out->name, B->name, sizeof out->name - 1); /* both HAL_BOARD_NAME_MAX, NUL-padded */
     return WDR_OK;
 }
 
@@ -217,36 +244,36 @@ int hal_board_info_get(hal_board_info *out)
 
 int hal_pixel_reset(bool asserted)
 {
-    L.values[LINE_RESET] = asserted;
+    L.values[LX_LINE_RESET] = asserted;
     return gpio_write();
 }
 
 int hal_row_select(uint16_t row)
 {
-    if (row >= HAL_LINUX_HEIGHT)
+    if (row >= B->height)
         return WDR_E_INVAL;
-    for (unsigned b = 0; b < HAL_LINUX_ROW_ADDR_BITS; b++)
-        L.values[LINE_ROW_ADDR0 + b] = (row >> b) & 1u;
-    L.values[LINE_ROW_SELECT] = 1;
+    for (unsigned b = 0; b + 3u < B->n_lines; b++)
+        L.values[LX_LINE_ROW_ADDR0 + b] = (row >> b) & 1u;
+    L.values[LX_LINE_ROW_SELECT] = 1;
     L.row_selected = row;
     return gpio_write();
 }
 
 void hal_row_deselect(void)
 {
-    L.values[LINE_ROW_SELECT] = 0;
+    L.values[LX_LINE_ROW_SELECT] = 0;
     L.row_selected = -1;
     gpio_write();
 }
 
 static int adc_shift_out(void)
 {
-    uint8_t rx[HAL_LINUX_WIDTH * 2u];
-    struct spi_ioc_transfer t = {.rx_buf = (uintptr_t)rx, .len = sizeof rx};
+    uint8_t rx[HAL_LINUX_MAX_WIDTH * 2u];
+    struct spi_ioc_transfer t = {.rx_buf = (uintptr_t)rx, .len = B->width * 2u};
     if (ioctl(L.adc_fd, SPI_IOC_MESSAGE(1), &t) < 0)
         return WDR_E_IO;
-    for (unsigned i = 0; i < HAL_LINUX_WIDTH; i++)
-        L.row[i] = (uint16_t)(((rx[2 * i] << 8) | rx[2 * i + 1]) & ((1u << HAL_LINUX_ADC_BITS) - 1u));
+    for (unsigned i = 0; i < B->width; i++)
+        L.row[i] = (uint16_t)(((rx[2 * i] << 8) | rx[2 * i + 1]) & ((1u << B->adc_bits) - 1u));
     return WDR_OK;
 }
 
@@ -256,11 +283,11 @@ int hal_adc_convert(void)
         return WDR_E_BUSY;
     if (L.row_selected < 0)
         return WDR_E_INVAL;
-    L.values[LINE_ADC_CONVERT] = 1;
+    L.values[LX_LINE_ADC_CONVERT] = 1;
     if (gpio_write() != WDR_OK)
         return WDR_E_IO;
-    hal_delay_ns(HAL_LINUX_ADC_CONVERT_NS);
-    L.values[LINE_ADC_CONVERT] = 0;
+    hal_delay_ns(B->adc_convert_ns);
+    L.values[LX_LINE_ADC_CONVERT] = 0;
     if (gpio_write() != WDR_OK)
         return WDR_E_IO;
     int rc = adc_shift_out();
@@ -270,7 +297,7 @@ int hal_adc_convert(void)
 
 int hal_adc_read_row(uint16_t *codes, size_t n)
 {
-    if (n != HAL_LINUX_WIDTH || !L.converted)
+    if (n != B->width || !L.converted)
         return WDR_E_INVAL;
     memcpy(codes, L.row, n * sizeof *codes);
     return WDR_OK;
@@ -325,7 +352,7 @@ int hal_ramp_start(const wdr_lut_view *lut)
         return WDR_E_INVAL;
     if (atomic_load(&L.ramp_playing))
         return WDR_E_BUSY;
-    if (lut->h.dac_bits != HAL_LINUX_DAC_BITS)
+    if (lut->h.dac_bits != B->dac_bits)
         return WDR_E_GEOMETRY;
     ramp_join();
     atomic_store(&L.ramp_abort, 0);

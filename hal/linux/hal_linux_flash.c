@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <mtd/mtd-user.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
@@ -16,25 +17,67 @@ static struct {
     hal_flash_geometry g;
 } M = {.fd = -1};
 
+static char mtd_path[HAL_LINUX_PATH_MAX + 16];
+
+const char *lx_flash_device(void) { return mtd_path; }
+
+/* The device of the MTD partition named `name` in /proc/mtd ("mtd2: 00100000 00010000 \"name\"").
+ * -1 with errno ENOENT when no partition has that name. */
+static int find_partition(const char *name)
+{
+    FILE *f = fopen("/proc/mtd", "r");
+    if (!f)
+        return -1;
+    char line[256];
+    int found = 0;
+    while (!found && fgets(line, sizeof line, f)) {
+        unsigned index;
+        char quoted[200];
+        if (sscanf(line, "mtd%u: %*x %*x \"%199[^\"]\"", &index, quoted) == 2 && !strcmp(quoted, name)) {
+            snprintf(mtd_path, sizeof mtd_path, "/dev/mtd%u", index);
+            found = 1;
+        }
+    }
+    fclose(f);
+    errno = ENOENT;
+    return found ? 0 : -1;
+}
+
 int lx_flash_init(void)
 {
     struct mtd_info_user info;
-    M.fd = open(HAL_LINUX_MTD, O_RDWR | O_CLOEXEC);
+    const char *spec = lx_board_get()->mtd;
+    if (spec[0] == '/') {
+        snprintf(mtd_path, sizeof mtd_path, "%s", spec);
+    } else if (find_partition(spec) != 0) {
+        char what[HAL_LINUX_PATH_MAX + 64];
+        snprintf(what, sizeof what, "'%s' (no such partition in /proc/mtd)", spec);
+        return lx_fail("MTD partition", what);
+    }
+    M.fd = open(mtd_path, O_RDWR | O_CLOEXEC);
     if (M.fd < 0)
-        return lx_fail("open", HAL_LINUX_MTD);
+        return lx_fail("open", mtd_path);
     if (ioctl(M.fd, MEMGETINFO, &info) < 0)
-        return lx_fail("ioctl MEMGETINFO", HAL_LINUX_MTD);
+        return lx_fail("ioctl MEMGETINFO", mtd_path);
     errno = EINVAL;
     if (info.erasesize == 0)
-        return lx_fail("ioctl MEMGETINFO (erase size 0)", HAL_LINUX_MTD);
+        return lx_fail("ioctl MEMGETINFO (erase size 0)", mtd_path);
     M.g.block_size = info.erasesize;
     M.g.block_count = info.size / info.erasesize;
     M.g.prog_size = info.writesize < MIN_PROG_SIZE ? MIN_PROG_SIZE : info.writesize;
     if (M.g.prog_size > 256) {
-        lx_fail("ioctl MEMGETINFO (write size above 256 bytes: NAND is not supported)", HAL_LINUX_MTD);
+        lx_fail("ioctl MEMGETINFO (write size above 256 bytes: NAND is not supported)", mtd_path);
         return WDR_E_UNSUPPORTED;
     }
     return WDR_OK;
+}
+
+/* Every program and erase is synchronous (pwrite, MEMERASE), so closing loses nothing. */
+void lx_flash_close(void)
+{
+    if (M.fd >= 0)
+        close(M.fd);
+    M.fd = -1;
 }
 
 int hal_flash_geometry_get(hal_flash_geometry *g)

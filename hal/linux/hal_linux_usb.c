@@ -37,6 +37,8 @@ static struct {
     size_t tx_fill; /* bytes waiting in tx[tx_filling] */
     int tx_filling;
     int tx_refused; /* hal_usb_write said BUSY: tell the firmware when there is room */
+    pthread_t threads[3]; /* ep0, OUT, IN */
+    int n_threads;
 } U = {.lock = PTHREAD_MUTEX_INITIALIZER, .cond = PTHREAD_COND_INITIALIZER, .ep0 = -1, .ep_in = -1, .ep_out = -1,
        .in_packet = HS_PACKET, .out_packet = HS_PACKET};
 
@@ -163,7 +165,7 @@ static void *ep0_main(void *arg)
         if (n < 0 && (transient(errno) || errno == EL2HLT))
             continue;
         if (n <= 0) { /* ep0 closed under us: nothing more will come */
-            fprintf(stderr, "wdr-board: read %s/ep0: %s\n", HAL_LINUX_FFS_DIR, n ? strerror(errno) : "end of file");
+            fprintf(stderr, "wdr-board: read %s/ep0: %s\n", lx_board_get()->functionfs, n ? strerror(errno) : "end of file");
             set_connected(0);
             return NULL;
         }
@@ -284,11 +286,15 @@ static int write_all(const uint8_t *p, size_t len)
 }
 
 /* Take the filled buffer for sending, handing the other one to hal_usb_write. */
+static void unlock(void *mutex) { pthread_mutex_unlock(mutex); }
+
 static size_t tx_take(const uint8_t **p, uint16_t *packet)
 {
     pthread_mutex_lock(&U.lock);
+    pthread_cleanup_push(unlock, &U.lock); /* lx_usb_close cancels this thread in the wait */
     while (!U.tx_fill)
         pthread_cond_wait(&U.cond, &U.lock);
+    pthread_cleanup_pop(0);
     size_t len = U.tx_fill;
     *p = U.tx[U.tx_filling];
     *packet = U.in_packet;
@@ -323,7 +329,7 @@ static void *tx_main(void *arg)
 static int open_ep(const char *name, int flags)
 {
     char path[256];
-    snprintf(path, sizeof path, "%s/%s", HAL_LINUX_FFS_DIR, name);
+    snprintf(path, sizeof path, "%s/%s", lx_board_get()->functionfs, name);
     int fd = open(path, flags | O_CLOEXEC);
     if (fd < 0)
         lx_fail("open", path);
@@ -335,7 +341,7 @@ static int write_ep0(const void *data, size_t len, const char *what)
     if (write(U.ep0, data, len) == (ssize_t)len)
         return WDR_OK;
     char path[300];
-    snprintf(path, sizeof path, "%s/ep0 (%s)", HAL_LINUX_FFS_DIR, what);
+    snprintf(path, sizeof path, "%s/ep0 (%s)", lx_board_get()->functionfs, what);
     return lx_fail("write", path);
 }
 
@@ -351,16 +357,43 @@ int lx_usb_init(void)
     U.ep_out = open_ep("ep2", O_RDONLY);
     if (U.ep_in < 0 || U.ep_out < 0)
         return WDR_E_IO;
-    pthread_t t;
     void *(*mains[3])(void *) = {ep0_main, rx_main, tx_main};
     for (int i = 0; i < 3; i++) {
-        int err = pthread_create(&t, NULL, mains[i], NULL);
-        if (err || (err = pthread_detach(t)) != 0) {
+        int err = pthread_create(&U.threads[i], NULL, mains[i], NULL);
+        if (err) {
             errno = err;
             return lx_fail("pthread_create", "USB thread");
         }
+        U.n_threads = i + 1;
     }
     return WDR_OK;
+}
+
+static void close_ep(int *fd)
+{
+    if (*fd >= 0)
+        close(*fd);
+    *fd = -1;
+}
+
+/* The ep0 and IN threads are cancelled where they wait (read, write, the condition); the OUT
+ * thread's AIO reads end with the endpoint (ESHUTDOWN) and it waits for a host that will not
+ * come, until the process exits. Closing ep0 last makes the kernel unbind the gadget. */
+void lx_usb_close(void)
+{
+    pthread_mutex_lock(&U.lock);
+    U.connected = 0;
+    pthread_cond_broadcast(&U.cond);
+    pthread_mutex_unlock(&U.lock);
+    for (int i = 0; i < U.n_threads; i++)
+        if (i != 1) { /* 1: rx_main, see above */
+            pthread_cancel(U.threads[i]);
+            pthread_join(U.threads[i], NULL);
+        }
+    U.n_threads = 0;
+    close_ep(&U.ep_in);
+    close_ep(&U.ep_out);
+    close_ep(&U.ep0);
 }
 
 size_t hal_usb_max_transfer(void) { return MAX_TRANSFER; }

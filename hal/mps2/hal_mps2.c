@@ -1,10 +1,12 @@
 /* hal/hal.h on the Arm MPS2 AN500 board (Cortex-M7; QEMU's mps2-an500): the wire protocol over
  * CMSDK UART0, time from CMSDK timer 0, table flash as a PSRAM region kept to NOR rules, and the
- * sensor as a replay of raw ADC frames that the test put in PSRAM. Bare metal: registers,
+ * sensor as a replay of raw ADC frames that the test put in PSRAM (the boot chain's part, image
+ * flash, boot record, reset and watchdog: hal_mps2_boot.c). Bare metal: registers,
  * static state, nothing else. Everything is polled; hal_event_poll turns what the registers show
  * into queued events, as interrupt handlers would. */
 #include "hal.h"
 #include "hal_event_ring.h"
+#include "hal_mps2_internal.h"
 #include "mps2_board.h"
 #include "wdr_proto.h"
 #include <string.h>
@@ -73,10 +75,14 @@ int hal_event_poll(hal_event *ev)
     return hal_event_ring_take(&events, ev);
 }
 
+/* Waiting for the host is not a hang: the idle loop feeds the watchdog (a loop anywhere else,
+ * or a fault, does not). */
 void hal_wait_for_event(void)
 {
-    while (hal_event_ring_empty(&events))
+    while (hal_event_ring_empty(&events)) {
+        hal_watchdog_feed();
         poll_sources();
+    }
 }
 
 /* ---- Time -------------------------------------------------------------------------------- */
@@ -131,6 +137,7 @@ int hal_init(void)
     UART_BAUDDIV = MPS2_UART_BAUDDIV;
     UART_CTRL = 0x3u; /* TX and RX enabled */
     flash_factory();
+    hal_mps2_watchdog_start();
     hal.replay = *replay();
     if (hal.replay.magic != REPLAY_MAGIC || hal.replay.width == 0 || hal.replay.height == 0 || hal.replay.frames == 0 ||
         (uint64_t)hal.replay.frames * hal.replay.height * hal.replay.width * 2u + sizeof(replay_header) >

@@ -129,6 +129,7 @@ int hal_init(void)
     if (!B.ready)
         return WDR_E_IO; /* hal_sim_setup was not called: no board to bring up */
     hal_sim_reboot();
+    hal_sim_boot_run(); /* the bootloader runs before the application's first instruction */
     return WDR_OK;
 }
 
@@ -295,6 +296,8 @@ int hal_sim_setup(const hal_sim_config *cfg, char *err, int errlen)
     int rc = setup_sensor(cfg, err, errlen);
     if (rc == WDR_OK)
         rc = hal_sim_flash_setup(cfg, err, errlen);
+    if (rc == WDR_OK)
+        rc = hal_sim_image_setup(cfg, err, errlen);
     if (rc == WDR_OK && cfg->socket_path)
         rc = hal_sim_usb_setup(cfg->socket_path, err, errlen);
     B.ready = 1;
@@ -311,6 +314,8 @@ void hal_sim_teardown(void)
 {
     hal_sim_usb_teardown();
     hal_sim_flash_teardown();
+    hal_sim_image_teardown();
+    hal_sim_boot_teardown();
     wdr_sim_destroy(B.sensor);
     free(B.adc_row);
     free(B.scene_amps);
@@ -330,6 +335,7 @@ void hal_sim_reboot(void)
     B.exposed = B.converted = B.reset_asserted = 0;
     B.row_selected = -1;
     hal_sim_flash_reboot();
+    hal_sim_image_reboot();
     hal_sim_usb_reboot();
 }
 

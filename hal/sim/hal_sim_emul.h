@@ -20,11 +20,17 @@ typedef struct hal_sim_config {
     const char *socket_path;  /* AF_UNIX path the "USB" listens on; NULL: no USB link */
     const char *flash_path;   /* file that keeps the flash between runs; NULL: RAM only */
     uint32_t flash_block_size, flash_block_count, flash_prog_size; /* 0: defaults below */
+    const char *image_flash_path; /* file that keeps the image flash (wdr-simboard: FLASH.images); NULL: RAM */
 } hal_sim_config;
 
 #define HAL_SIM_FLASH_BLOCK_SIZE 4096u
 #define HAL_SIM_FLASH_BLOCK_COUNT 8192u /* 32 MiB: A/B slots of a VGA basis-8 calibration table (9.8 MB) */
 #define HAL_SIM_FLASH_PROG_SIZE 128u /* the firmware's slot format needs <= 128 */
+
+/* The image flash (SPEC.md, "Image flash and boot"): the mps2-an500's geometry, 2 MiB. */
+#define HAL_SIM_IMAGE_BLOCK_SIZE 4096u
+#define HAL_SIM_IMAGE_BLOCK_COUNT 512u
+#define HAL_SIM_IMAGE_PROG_SIZE 16u
 
 /* Build the board: sensor chip, flash, socket. Call before hal_init; again only after
  * hal_sim_teardown. err names the file or path at fault.
@@ -75,6 +81,33 @@ void hal_sim_flash_reset(void);
 
 /* Direct view of the flash bytes, for invariant checks. */
 const uint8_t *hal_sim_flash_bytes(size_t *size);
+
+/* ---- Image flash and boot ----------------------------------------------------------------
+ * hal_init is the reset: it runs the bootloader's logic (firmware/boot, wdr_boot_decide) over
+ * the image flash and leaves the record hal_boot_record_get returns (none when nothing is
+ * bootable: the firmware then runs unversioned). The application bytes are opaque here: the
+ * built-in firmware runs as the chosen image, with its header's version. */
+
+/* 1 when every byte of the image flash is erased (a blank board). */
+int hal_sim_image_flash_blank(void);
+
+/* Write a whole signed image into slot A with an empty state log: a factory image, as a
+ * programmer flashes a blank board. Not checked here: the boot decides.
+ * @retval WDR_OK  @retval WDR_E_TOO_LARGE beyond slot A  @retval WDR_E_IO  @retval WDR_E_POWER */
+int hal_sim_image_flash_write_factory(const uint8_t *image, size_t len);
+
+/* Direct view of the image flash bytes (tests). */
+uint8_t *hal_sim_image_flash_bytes(size_t *size);
+
+/* Print each boot's decision on stderr (wdr-simboard). */
+void hal_sim_set_boot_log(int on);
+
+/* 1 once after the firmware called hal_reset (the flag is taken): the loop then reruns
+ * hal_init and the firmware's init, as the board's reset would. */
+int hal_sim_take_reset(void);
+
+/* hal_watchdog_feed calls since setup. */
+uint64_t hal_sim_watchdog_feeds(void);
 
 /* ---- USB link faults (callable from another thread while the firmware is served (simboard_loop.h)) ------------ */
 

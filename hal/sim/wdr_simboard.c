@@ -1,7 +1,7 @@
 /* wdr-simboard: the controller firmware running on the simulated HAL, its USB endpoints
  * served on a local socket for wdrctl (--device sim:PATH).
  *
- *   wdr-simboard --board FILE --scene FILE [--socket PATH] [--flash FILE] [--seed N] [--once]
+ *   wdr-simboard --board FILE --scene FILE [--socket PATH] [--flash FILE] [--firmware IMG] [--seed N] [--once]
  *
  * Ends cleanly on SIGTERM or SIGINT, when stdin is a pipe that reaches EOF (the parent went
  * away), or with --once when the first host disconnects. */
@@ -22,11 +22,12 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include "wdr_boot.h"
 #include <sysexits.h>
 #include <unistd.h>
 
 typedef struct simboard_opts {
-    const char *board, *scene, *socket, *flash;
+    const char *board, *scene, *socket, *flash, *firmware;
     uint64_t seed;
     int seed_given, once;
     const char *exposure_text;
@@ -41,7 +42,10 @@ static const cli_option rows[] = {
      .flags = CLI_REQUIRED, .values = "@scenes"},
     {"socket", 0, CLI_STRING, O(socket), "PATH",
      "where wdrctl connects (default wdr-simboard.sock): wdrctl --device sim:PATH"},
-    {"flash", 0, CLI_STRING, O(flash), "FILE", "keep the table flash in FILE between runs (default: RAM, lost on exit)"},
+    {"flash", 0, CLI_STRING, O(flash), "FILE",
+     "keep the table flash in FILE and the image flash in FILE.images between runs (default: RAM, lost on exit)"},
+    {"firmware", 0, CLI_STRING, O(firmware), "IMG",
+     "a signed image (wdrctl fw sign) written into slot A when the image flash is blank, as a factory image"},
     {"seed", 0, CLI_U64, O(seed), "N", "chip seed: fixed-pattern draw (default: the scene's chip_seed)",
      .given = CLI_GIVEN(simboard_opts, seed_given)},
     {"once", 0, CLI_FLAG, O(once), NULL, "exit when the first host disconnects"},
@@ -59,8 +63,8 @@ static const cli_section sections[] = {
     {"EXAMPLES", "wdr-simboard --board sim-vga --scene window --socket /tmp/board.sock &"},
     {"SIGNALS", "SIGTERM or SIGINT ends it cleanly; so does the end of stdin when stdin is a pipe (the parent "
                 "went away), and with --once the first host's disconnect."},
-    {"EXIT STATUS", "0 on a clean stop; otherwise a sysexits(3) code: 64 usage, 65 a bad scene or board file, 66 "
-                    "a file that cannot be read, 70 the firmware did not start, 73 the socket or flash file "
+    {"EXIT STATUS", "0 on a clean stop; otherwise a sysexits(3) code: 64 usage, 65 a bad scene or board file, or "
+                    "a --firmware image larger than slot A, 66 a file that cannot be read, 70 the firmware did not start, 73 the socket or flash file "
                     "cannot be created."},
     {"SEE ALSO", "wdrctl(1), wdrsim(1)"},
     {NULL, NULL}};
@@ -133,8 +137,12 @@ static int start_board(const simboard_opts *o, wdr_board *b)
     if (scene.warning[0])
         fprintf(stderr, "wdr-simboard: %s: %s\n", o->scene, scene.warning);
     wdr_scene_print_range(stderr, "wdr-simboard", &scene, b);
+    char image_path[4096];
+    if (o->flash)
+        snprintf(image_path, sizeof image_path, "%s.images", o->flash);
     hal_sim_config cfg = {.board = b, .seed = o->seed_given ? o->seed : scene.chip_seed,
-                          .frame_seed = scene.frame_seed, .socket_path = o->socket, .flash_path = o->flash};
+                          .frame_seed = scene.frame_seed, .socket_path = o->socket, .flash_path = o->flash,
+                          .image_flash_path = o->flash ? image_path : NULL};
     rc = hal_sim_setup(&cfg, err, sizeof err);
     if (rc != WDR_OK) {
         fprintf(stderr, "wdr-simboard: %s\n", err);
@@ -146,6 +154,36 @@ static int start_board(const simboard_opts *o, wdr_board *b)
         fprintf(stderr, "wdr-simboard: scene %s does not fit board %s: %s\n", o->scene, o->board, wdr_strerror(rc));
     wdr_scene_free(&scene);
     return rc == WDR_OK ? EX_OK : EX_DATAERR;
+}
+
+/* --firmware IMG: flash a blank board's slot A, as a programmer would; a board that holds
+ * images keeps them (the update path is wdrctl fw upload). */
+static int flash_factory_image(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        fprintf(stderr, "wdr-simboard: --firmware %s: %s\n", path, strerror(errno));
+        return EX_NOINPUT;
+    }
+    static uint8_t image[HAL_SIM_IMAGE_BLOCK_SIZE * HAL_SIM_IMAGE_BLOCK_COUNT];
+    size_t n = fread(image, 1, sizeof image, f);
+    int too_long = fgetc(f) != EOF;
+    fclose(f);
+    if (!hal_sim_image_flash_blank()) {
+        fprintf(stderr, "wdr-simboard: --firmware %s: the image flash already holds images; it keeps them\n", path);
+        return EX_OK;
+    }
+    int rc = too_long ? WDR_E_TOO_LARGE : hal_sim_image_flash_write_factory(image, n);
+    if (rc != WDR_OK) {
+        const hal_flash_geometry g = {HAL_SIM_IMAGE_BLOCK_SIZE, HAL_SIM_IMAGE_BLOCK_COUNT, HAL_SIM_IMAGE_PROG_SIZE};
+        wdr_boot_layout l = {0};
+        wdr_boot_layout_init(&l, &g);
+        fprintf(stderr, "wdr-simboard: --firmware %s: %zu%s bytes, slot A holds %u: %s\n", path, n, too_long ? "+" : "",
+                l.image_capacity, wdr_strerror(rc));
+        return EX_DATAERR;
+    }
+    fprintf(stderr, "wdr-simboard: --firmware %s: %zu bytes written into slot A (factory image)\n", path, n);
+    return EX_OK;
 }
 
 /* A pipe on stdin ties our life to the parent's: its end closes, we end. */
@@ -164,7 +202,7 @@ int main(int argc, char **argv)
     if (rc != EX_OK || done)
         return rc;
     install_signals();
-    if ((rc = start_board(&o, &b)) != EX_OK) {
+    if ((rc = start_board(&o, &b)) != EX_OK || (o.firmware && (rc = flash_factory_image(o.firmware)) != EX_OK)) {
         hal_sim_teardown();
         return rc;
     }
@@ -174,6 +212,7 @@ int main(int argc, char **argv)
                 b.width, WDR_FW_MAX_WIDTH);
     hal_sim_set_exit_on_disconnect(o.once);
     watch_parent_pipe();
+    hal_sim_set_boot_log(1);
     fprintf(stderr, "wdr-simboard: %s %ux%u serving wdrctl --device sim:%s (SIGTERM or Ctrl-C stops)\n", b.name,
             b.width, b.height, o.socket);
     if (hal_init() != WDR_OK || (rc = simboard_serve()) != WDR_OK) {

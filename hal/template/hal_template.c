@@ -155,3 +155,46 @@ int hal_set_illuminant(double amps)
 }
 
 int hal_restore_scene(void) { return WDR_E_UNSUPPORTED; }
+/* ---- Firmware images, boot record, reset, watchdog: no bootloader on the template board ------ */
+
+int hal_image_flash_geometry_get(hal_flash_geometry *g)
+{
+    memset(g, 0, sizeof *g);
+    return WDR_E_UNSUPPORTED;
+}
+
+int hal_image_flash_read(uint32_t addr, void *buf, uint32_t len)
+{
+    (void)addr, (void)buf, (void)len;
+    return WDR_E_UNSUPPORTED;
+}
+
+int hal_image_flash_erase(uint32_t block)
+{
+    (void)block;
+    return WDR_E_UNSUPPORTED;
+}
+
+int hal_image_flash_prog(uint32_t addr, const void *buf, uint32_t len)
+{
+    (void)addr, (void)buf, (void)len;
+    return WDR_E_UNSUPPORTED;
+}
+
+int hal_boot_record_get(struct wdr_boot_record *out)
+{
+    (void)out;
+    return WDR_E_UNSUPPORTED;
+}
+
+/* A port writes the cause where its bootloader finds it, then asks the core for a system reset
+ * (SCB->AIRCR = 0x05FA0004); the template has neither, so it parks like a real reset would stop
+ * the program. */
+void hal_reset(uint8_t cause)
+{
+    (void)cause;
+    for (;;) {
+    }
+}
+
+void hal_watchdog_feed(void) {}

@@ -23,12 +23,29 @@ static const char *opcode_name(int op)
     case WDR_CMD_CAPTURE: return "CAPTURE";
     case WDR_CMD_STREAM: return "STREAM";
     case WDR_CMD_ABORT: return "ABORT";
+    case WDR_CMD_SET_EXPOSURE: return "SET_EXPOSURE";
+    case WDR_CMD_FW_BEGIN: return "FW_BEGIN";
+    case WDR_CMD_FW_CHUNK: return "FW_CHUNK";
+    case WDR_CMD_FW_COMMIT: return "FW_COMMIT";
+    case WDR_CMD_FW_STATUS: return "FW_STATUS";
+    case WDR_CMD_FW_CONFIRM: return "FW_CONFIRM";
+    case WDR_CMD_FW_REVERT: return "FW_REVERT";
+    case WDR_CMD_REBOOT: return "REBOOT";
     case WDR_CMD_SIM_SET_ILLUMINANT: return "SIM_SET_ILLUMINANT";
     default: return "request";
     }
 }
 
 const char *wdr_client_status_text(int status) { return wdr_status_name(status); }
+
+const char *wdr_client_status_ident(int status)
+{
+    static const char *const names[] = {"OK", "BUSY", "BAD_CRC", "BAD_SEQUENCE", "TOO_LARGE", "BAD_GEOMETRY",
+                                        "NO_TABLE", "UNSUPPORTED", "BAD_KIND", "BAD_LENGTH", "BAD_VERSION",
+                                        "TRUNCATED", "BAD_TABLE", "BAD_ARG", "FLASH", "BAD_SIGNATURE", "BAD_KEY",
+                                        "DOWNGRADE", "BAD_HASH", "BAD_BOARD", "BAD_STATE", "BAD_IMAGE"};
+    return status >= 0 && status < (int)(sizeof names / sizeof names[0]) ? names[status] : "UNKNOWN";
+}
 
 /* ---- Receiving packets ------------------------------------------------------------------- */
 
@@ -51,6 +68,7 @@ static int next_packet(wdr_client *c, int64_t deadline, wdr_packet *p)
             return n;
         c->rx_pos = 0;
         c->rx_len = (size_t)n;
+        c->rx_bytes += (uint64_t)n;
     }
 }
 
@@ -106,6 +124,7 @@ static int one_attempt(wdr_client *c, size_t frame_len, uint8_t opcode)
         return RETRY;
     if (rc != WDR_OK)
         return transport_fail(c, rc, opcode);
+    c->tx_bytes += frame_len;
     int64_t deadline = wdr_transport_now_ms() + c->timeout_ms;
     for (;;) {
         wdr_packet p;
@@ -126,10 +145,12 @@ static size_t encode_request(wdr_client *c, uint8_t opcode, const void *payload,
     return wdr_proto_encode(c->tx, sizeof c->tx, &h, payload, len);
 }
 
-/* A BAD_CRC answer to anything but a commit means our request was damaged on the way. */
+/* A BAD_CRC answer to anything but a commit means our request was damaged on the way (a
+ * commit's BAD_CRC is about the uploaded bytes). */
 static int request_was_damaged(const wdr_client *c, uint8_t opcode)
 {
-    return c->status == WDR_ST_BAD_CRC && opcode != WDR_CMD_LUT_COMMIT && opcode != WDR_CMD_CAL_COMMIT;
+    return c->status == WDR_ST_BAD_CRC && opcode != WDR_CMD_LUT_COMMIT && opcode != WDR_CMD_CAL_COMMIT &&
+           opcode != WDR_CMD_FW_COMMIT;
 }
 
 int wdr_client_request(wdr_client *c, uint8_t opcode, const void *payload, uint32_t len)
@@ -309,29 +330,81 @@ static int check_commit(wdr_client *c, uint32_t crc, wdr_commit_reply *out)
     return WDR_OK;
 }
 
+/* BEGIN, CHUNKs, COMMIT of one kind (op_begin; CHUNK and COMMIT follow it in every kind's
+ * opcodes); the COMMIT's answer is left in c->reply. A refusal ends with an ABORT. */
+static int upload_bytes(wdr_client *c, uint8_t op_begin, const uint8_t *data, size_t len, uint32_t crc,
+                        wdr_progress_fn progress, void *progress_ctx)
+{
+    if (len == 0 || len > 0xffffffffu)
+        return fail(c, WDR_E_INVAL, "nothing to upload, or more than 4 GiB");
+    uint8_t begin[WDR_BEGIN_SIZE];
+    wdr_put_u32(begin, (uint32_t)len);
+    wdr_put_u32(begin + 4, crc);
+    int rc = wdr_client_request(c, op_begin, begin, sizeof begin);
+    if (rc == WDR_OK)
+        rc = upload_chunks(c, (uint8_t)(op_begin + 1), data, len, progress, progress_ctx);
+    c->commit_unknown = 0;
+    if (rc == WDR_OK) {
+        rc = wdr_client_request(c, (uint8_t)(op_begin + 2), NULL, 0);
+        c->commit_unknown = rc == WDR_E_IO || rc == WDR_E_TIMEOUT; /* sent, maybe done, no answer */
+    }
+    if (rc != WDR_OK && rc != WDR_E_IO)
+        abort_quietly(c);
+    return rc;
+}
+
 int wdr_client_upload(wdr_client *c, int kind, const uint8_t *table, size_t len, wdr_progress_fn progress,
                       void *progress_ctx, wdr_commit_reply *out)
 {
     uint8_t op = kind == WDR_KIND_CAL ? WDR_CMD_CAL_BEGIN : WDR_CMD_LUT_BEGIN;
-    if (len == 0 || len > 0xffffffffu)
-        return fail(c, WDR_E_INVAL, "table is empty or larger than 4 GiB");
-    uint32_t crc = wdr_crc32(0, table, len);
-    uint8_t begin[WDR_BEGIN_SIZE];
-    wdr_put_u32(begin, (uint32_t)len);
-    wdr_put_u32(begin + 4, crc);
-    int rc = wdr_client_request(c, op, begin, sizeof begin);
+    uint32_t crc = len ? wdr_crc32(0, table, len) : 0;
+    int rc = upload_bytes(c, op, table, len, crc, progress, progress_ctx);
+    return rc == WDR_OK ? check_commit(c, crc, out) : rc;
+}
+
+/* ---- Firmware images (protocol 1.4) ------------------------------------------------------------ */
+
+static int need_fw_protocol(wdr_client *c)
+{
+    if (c->info.proto_major == WDR_PROTO_VERSION_MAJOR && c->info.proto_minor >= 4)
+        return WDR_OK;
+    char what[160];
+    snprintf(what, sizeof what, "board speaks protocol %u.%u: firmware update needs 1.4 (flash it with a debugger)",
+             c->info.proto_major, c->info.proto_minor);
+    return fail(c, WDR_E_UNSUPPORTED, what);
+}
+
+int wdr_client_fw_upload(wdr_client *c, const uint8_t *img, size_t len, wdr_progress_fn progress, void *progress_ctx,
+                         wdr_fw_commit *out)
+{
+    int rc = need_fw_protocol(c);
     if (rc == WDR_OK)
-        rc = upload_chunks(c, (uint8_t)(op + 1), table, len, progress, progress_ctx);
-    c->commit_unknown = 0;
-    if (rc == WDR_OK) {
-        rc = wdr_client_request(c, (uint8_t)(op + 2), NULL, 0);
-        c->commit_unknown = rc == WDR_E_IO || rc == WDR_E_TIMEOUT; /* sent, maybe done, no answer */
-    }
+        rc = upload_bytes(c, WDR_CMD_FW_BEGIN, img, len, len ? wdr_crc32(0, img, len) : 0, progress, progress_ctx);
+    if (rc != WDR_OK)
+        return rc;
+    wdr_fw_commit r = {.slot = c->reply_len ? c->reply[0] : 0xff};
+    if (c->reply_len < WDR_FW_COMMIT_REPLY_SIZE || r.slot > 1 ||
+        wdr_image_header_parse(c->reply + 4, UINT32_MAX, &r.hdr) != WDR_OK)
+        return fail(c, WDR_E_PROTOCOL, "FW_COMMIT answer is not a slot and an image header");
+    if (out)
+        *out = r;
+    return WDR_OK;
+}
+
+int wdr_client_fw_status(wdr_client *c, wdr_fw_status_report *out)
+{
+    int rc = need_fw_protocol(c);
     if (rc == WDR_OK)
-        return check_commit(c, crc, out);
-    if (rc != WDR_E_IO)
-        abort_quietly(c);
+        rc = wdr_client_request(c, WDR_CMD_FW_STATUS, NULL, 0);
+    if (rc == WDR_OK && wdr_fw_status_unpack(c->reply, c->reply_len, out) != WDR_OK)
+        return fail(c, WDR_E_PROTOCOL, "FW_STATUS answer too short");
     return rc;
+}
+
+int wdr_client_fw_request(wdr_client *c, uint8_t opcode)
+{
+    int rc = need_fw_protocol(c);
+    return rc == WDR_OK ? wdr_client_request(c, opcode, NULL, 0) : rc;
 }
 
 /* ---- Capture and stream ------------------------------------------------------------------------ */

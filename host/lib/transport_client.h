@@ -5,6 +5,7 @@
 #ifndef WDR_TRANSPORT_CLIENT_H
 #define WDR_TRANSPORT_CLIENT_H
 #include "transport.h"
+#include "wdr_image.h"
 #include "wdr_proto.h"
 #include <stddef.h>
 #include <stdint.h>
@@ -28,6 +29,7 @@ typedef struct wdr_client {
     int status;                  /* enum wdr_status of the last response */
     wdr_info info;               /* from connect */
     uint32_t retries_used;       /* attempts repeated since connect (for tests and reports) */
+    uint64_t tx_bytes, rx_bytes; /* bytes on the link since connect, framing included (wire time) */
     int commit_unknown;          /* the link failed during the last upload's COMMIT: the board may
                                     or may not have made the table active (ask STATUS) */
     wdr_event_fn on_event;
@@ -64,6 +66,28 @@ int wdr_client_status(wdr_client *c, wdr_status_report *out);
 int wdr_client_upload(wdr_client *c, int kind, const uint8_t *table, size_t len, wdr_progress_fn progress,
                       void *progress_ctx, wdr_commit_reply *out);
 
+/* ---- Firmware images (protocol 1.4; WDR_E_UNSUPPORTED from an older board) ---------------- */
+
+typedef struct wdr_fw_commit {
+    uint8_t slot;                /* 0 (A) or 1 (B): where the image waits, pending */
+    wdr_image_header hdr;        /* its header, as the board read it back */
+} wdr_fw_commit;
+
+/* Upload a signed image (FW_BEGIN, FW_CHUNKs, FW_COMMIT) into the slot not running: the same
+ * chunking, retries and ABORT on refusal as wdr_client_upload. A refusal leaves its status in
+ * c->status (15-21, TRUNCATED, BAD_CRC, TOO_LARGE, BAD_STATE): nothing is pending then.
+ * @retval WDR_OK, request errors, WDR_E_UNSUPPORTED, WDR_E_PROTOCOL (commit answer malformed) */
+int wdr_client_fw_upload(wdr_client *c, const uint8_t *img, size_t len, wdr_progress_fn progress, void *progress_ctx,
+                         wdr_fw_commit *out);
+
+/* FW_STATUS: both slots, the running one, the last reset. @retval WDR_OK, request errors,
+ * WDR_E_UNSUPPORTED, WDR_E_PROTOCOL (short answer) */
+int wdr_client_fw_status(wdr_client *c, wdr_fw_status_report *out);
+
+/* A firmware request without payload or answer: FW_CONFIRM, FW_REVERT, REBOOT.
+ * @retval WDR_OK, request errors, WDR_E_UNSUPPORTED */
+int wdr_client_fw_request(wdr_client *c, uint8_t opcode);
+
 /* One captured frame, assembled from ROW events. */
 typedef struct wdr_frame {
     uint16_t width, height;
@@ -97,5 +121,8 @@ int wdr_client_restore_scene(wdr_client *c);
 
 /* Text of a protocol status. */
 const char *wdr_client_status_text(int status);
+
+/* The status's name in SPEC.md ("BAD_KEY"), for messages that quote it. */
+const char *wdr_client_status_ident(int status);
 
 #endif

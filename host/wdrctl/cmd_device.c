@@ -4,6 +4,7 @@
 #include "cli_number.h"
 #include "crc32.h"
 #include "file_io.h"
+#include "fw_sign.h"
 #include "image_io.h"
 #include "transport.h"
 #include "transport_client.h"
@@ -145,6 +146,7 @@ int wdrctl_exit_code(int rc, int status)
     case WDR_E_VERSION:
     case WDR_E_CORRUPT: return EX_PROTOCOL;
     case WDR_E_INVAL: return EX_USAGE;
+    case WDR_E_UNSUPPORTED: return EX_UNAVAILABLE; /* the board cannot do it (an older protocol) */
     case WDR_E_NOMEM: return EX_OSERR;
     case WDR_E_STATUS: return exit_for_status(status);
     default: return EX_SOFTWARE;
@@ -190,6 +192,11 @@ static int connect_waiting(const char *address, int timeout_ms, int retries, int
 int wdrctl_connect(const char *address, int timeout_ms, int retries, wdrctl_conn *conn)
 {
     return connect_waiting(address, timeout_ms, retries, 0, conn);
+}
+
+int wdrctl_connect_wait(const char *address, int timeout_ms, int retries, int wait_ms, wdrctl_conn *conn)
+{
+    return connect_waiting(address, timeout_ms, retries, wait_ms, conn);
 }
 
 int wdrctl_conn_fail(wdrctl_conn *conn, int rc)
@@ -264,6 +271,10 @@ static void print_info_json(const char *device, const wdr_info *i)
     cJSON_AddNumberToObject(o, "protocol_minor", i->proto_minor);
     cJSON_AddNumberToObject(o, "firmware_major", i->fw_major);
     cJSON_AddNumberToObject(o, "firmware_minor", i->fw_minor);
+    cJSON_AddNumberToObject(o, "firmware_patch", i->fw_patch);
+    cJSON_AddNumberToObject(o, "firmware_build", i->fw_build);
+    cJSON_AddStringToObject(o, "image_slot", i->fw_slot == 0 ? "A" : i->fw_slot == 1 ? "B" : "none");
+    cJSON_AddBoolToObject(o, "test_boot", (i->fw_flags & 1) != 0);
     cJSON_AddNumberToObject(o, "max_payload", i->max_payload);
     cJSON_AddNumberToObject(o, "lut_capacity", i->lut_capacity);
     cJSON_AddNumberToObject(o, "cal_capacity", i->cal_capacity);
@@ -278,8 +289,17 @@ static void print_info_text(const char *device, const wdr_info *i)
 {
     printf("device:        %s\nboard:         %s\nsensor id:     0x%08x\ngeometry:      %ux%u\n", device, i->name,
            i->sensor_id, i->width, i->height);
-    printf("adc/dac bits:  %u/%u\nrow time:      %u ns\nprotocol:      %u.%u\nfirmware:      %u.%u\n", i->adc_bits,
-           i->dac_bits, i->row_time_ns, i->proto_major, i->proto_minor, i->fw_major, i->fw_minor);
+    printf("adc/dac bits:  %u/%u\nrow time:      %u ns\nprotocol:      %u.%u\n", i->adc_bits, i->dac_bits,
+           i->row_time_ns, i->proto_major, i->proto_minor);
+    if (i->fw_slot > 1) /* not booted from a signed image: the firmware's built-in version */
+        printf("firmware:      %u.%u (not booted from an image slot)\n", i->fw_major, i->fw_minor);
+    else {
+        wdr_image_version v = {(uint8_t)i->fw_major, (uint8_t)i->fw_minor, i->fw_patch, i->fw_build};
+        char ver[48];
+        wdr_fw_version_format(&v, ver, sizeof ver); /* as fw info and fw status write it */
+        printf("firmware:      %s, slot %s%s\n", ver, i->fw_slot ? "B" : "A",
+               i->fw_flags & 1 ? ", test boot (wdrctl fw confirm keeps it)" : "");
+    }
     printf("max payload:   %u bytes\nLUT capacity:  %u bytes\nCAL capacity:  %u bytes\nsimulated:     %s\n",
            i->max_payload, i->lut_capacity, i->cal_capacity, (i->caps & WDR_INFO_CAP_ILLUMINANT) ? "yes" : "no");
 }

@@ -30,7 +30,9 @@ static const cli_command *const commands[] = {
     &wdrctl_cmd_operators, &wdrctl_cmd_lut_build, &wdrctl_cmd_lut_plots, &wdrctl_cmd_lut_upload,
     &wdrctl_cmd_lut_select, &wdrctl_cmd_tonemap, &wdrctl_cmd_devices, &wdrctl_cmd_info, &wdrctl_cmd_status,
     &wdrctl_cmd_cal_upload, &wdrctl_cmd_integration, &wdrctl_cmd_exposure, &wdrctl_cmd_capture, &wdrctl_cmd_stream,
-    &wdrctl_cmd_sim_illuminant, &wdrctl_cmd_calibrate, &wdrctl_cmd_fpn_report, &wdrctl_cmd_study, NULL};
+    &wdrctl_cmd_sim_illuminant, &wdrctl_cmd_calibrate, &wdrctl_cmd_fpn_report, &wdrctl_cmd_study,
+    &wdrctl_cmd_fw_sign, &wdrctl_cmd_fw_info, &wdrctl_cmd_fw_upload, &wdrctl_cmd_fw_status, &wdrctl_cmd_fw_confirm,
+    &wdrctl_cmd_fw_revert, &wdrctl_cmd_reboot, NULL};
 
 static const cli_section sections[] = {
     {"ENVIRONMENT", "WDR_DEVICE: the board when --device is not given.\n"

@@ -28,6 +28,8 @@ extern const cli_command wdrctl_cmd_devices, wdrctl_cmd_info, wdrctl_cmd_status,
     wdrctl_cmd_lut_select, wdrctl_cmd_cal_upload, wdrctl_cmd_integration, wdrctl_cmd_exposure, wdrctl_cmd_capture, wdrctl_cmd_stream,
     wdrctl_cmd_sim_illuminant;
 extern const cli_command wdrctl_cmd_calibrate, wdrctl_cmd_fpn_report, wdrctl_cmd_study;
+extern const cli_command wdrctl_cmd_fw_sign, wdrctl_cmd_fw_info, wdrctl_cmd_fw_upload, wdrctl_cmd_fw_status,
+    wdrctl_cmd_fw_confirm, wdrctl_cmd_fw_revert, wdrctl_cmd_reboot;
 
 /* Commands, one per file group (cmd_*.c). */
 int cmd_operators(int argc, char **argv);
@@ -52,6 +54,15 @@ int cmd_fpn_report(int argc, char **argv);
 
 /* What accuracy costs (cmd_study.c over host/study/). */
 int cmd_study(int argc, char **argv);
+
+/* Firmware images: files (cmd_fw_image.c) and boards (cmd_fw.c). */
+int cmd_fw_sign(int argc, char **argv);
+int cmd_fw_info(int argc, char **argv);
+int cmd_fw_upload(int argc, char **argv);
+int cmd_fw_status(int argc, char **argv);
+int cmd_fw_confirm(int argc, char **argv);
+int cmd_fw_revert(int argc, char **argv);
+int cmd_reboot(int argc, char **argv);
 
 /* Scene statistics of an HDR image (wdr_lum_stats in operators.h); a sysexits code. The image
  * goes through the one pixel policy (wdr_hdr_sanitize): NaN/Inf refused, negatives clamped. */
@@ -85,6 +96,8 @@ typedef struct wdrctl_conn {
 int wdrctl_check_output(const char *cmd, const char *path, const char *exts);
 
 int wdrctl_connect(const char *address, int timeout_ms, int retries, wdrctl_conn *conn);
+/* The same, looking again every 50 ms for wait_ms for a board that is absent (starting). */
+int wdrctl_connect_wait(const char *address, int timeout_ms, int retries, int wait_ms, wdrctl_conn *conn);
 void wdrctl_disconnect(wdrctl_conn *conn);
 
 /* After an upload whose COMMIT lost the link (c->commit_unknown): disconnect, connect again

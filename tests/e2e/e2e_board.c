@@ -69,8 +69,14 @@ static int spawn_board(e2e_board *e, const char *board_path)
     posix_spawn_file_actions_adddup2(&fa, p[0], 0);
     posix_spawn_file_actions_addclose(&fa, p[1]);
     posix_spawn_file_actions_addopen(&fa, 2, log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    char *argv[] = {WDR_SIMBOARD_PATH, "--board", (char *)board_path, "--scene", e->scene_path,
-                    "--socket", e->socket_path, e->flash_path ? "--flash" : NULL, (char *)e->flash_path, NULL};
+    char *argv[12] = {WDR_SIMBOARD_PATH, "--board", (char *)board_path, "--scene", e->scene_path,
+                      "--socket", e->socket_path};
+    int n = 7;
+    if (e->flash_path)
+        argv[n++] = "--flash", argv[n++] = (char *)e->flash_path;
+    if (e->firmware_path)
+        argv[n++] = "--firmware", argv[n++] = (char *)e->firmware_path;
+    argv[n] = NULL;
     int rc = posix_spawn(&e->pid, WDR_SIMBOARD_PATH, &fa, NULL, argv, environ);
     posix_spawn_file_actions_destroy(&fa);
     close(p[0]);
@@ -110,9 +116,15 @@ int e2e_start(e2e_board *e, const char *board_name) { return e2e_start_with_flas
 
 int e2e_start_with_flash(e2e_board *e, const char *board_name, const char *flash_path)
 {
+    return e2e_start_with_firmware(e, board_name, flash_path, NULL);
+}
+
+int e2e_start_with_firmware(e2e_board *e, const char *board_name, const char *flash_path, const char *firmware_path)
+{
     char board_path[512], err[512];
     memset(e, 0, sizeof *e);
     e->flash_path = flash_path;
+    e->firmware_path = firmware_path;
     e->stdin_fd = -1;
     snprintf(e->dir, sizeof e->dir, "/tmp/wdr-e2e-XXXXXX");
     if (!mkdtemp(e->dir))

@@ -16,6 +16,7 @@ typedef struct e2e_board {
     char address[160];       /* "sim:<socket_path>" */
     char scene_path[128];
     const char *flash_path;  /* --flash FILE, or NULL (RAM) */
+    const char *firmware_path; /* --firmware IMG (a factory image for a blank board), or NULL */
     pid_t pid;
     int stdin_fd;            /* write end of the child's stdin */
     wdr_board board;
@@ -29,6 +30,9 @@ int e2e_start(e2e_board *e, const char *board_name);
 
 /* The same, with the board's flash kept in flash_path (which outlives e2e_stop). */
 int e2e_start_with_flash(e2e_board *e, const char *board_name, const char *flash_path);
+
+/* The same, flashing firmware_path into slot A of the blank image flash (--firmware). */
+int e2e_start_with_firmware(e2e_board *e, const char *board_name, const char *flash_path, const char *firmware_path);
 
 /* Disconnect, end the child (EOF on its stdin, then SIGTERM after a grace period), remove the folder. */
 void e2e_stop(e2e_board *e);

@@ -45,6 +45,28 @@ static void bad_files(void **state)
     assert_int_equal(e2e_run(bad_socket, 20), EX_CANTCREAT);
 }
 
+/* --firmware: a missing image file, and one larger than slot A (2 MiB image flash). */
+static void bad_firmware_files(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/wdr-fwcli-XXXXXX", sock[128], big[128];
+    assert_non_null(mkdtemp(dir));
+    snprintf(sock, sizeof sock, "%s/b.sock", dir);
+    snprintf(big, sizeof big, "%s/big.img", dir);
+    FILE *f = fopen(big, "wb");
+    assert_non_null(f);
+    assert_int_equal(fseek(f, 1536L * 1024L, SEEK_SET), 0);
+    assert_int_equal(fputc(0, f), 0);
+    assert_int_equal(fclose(f), 0);
+    char *missing[] = {WDR_SIMBOARD_PATH, "--board", BOARD, "--scene", SCENE, "--socket", sock,
+                       "--firmware", "/nonexistent/app.img", NULL};
+    char *too_big[] = {WDR_SIMBOARD_PATH, "--board", BOARD, "--scene", SCENE, "--socket", sock, "--firmware", big, NULL};
+    assert_int_equal(e2e_run(missing, 20), EX_NOINPUT);
+    assert_int_equal(e2e_run(too_big, 20), EX_DATAERR);
+    unlink(big);
+    rmdir(dir);
+}
+
 /* wdrctl --wait finds a board that is still starting; wdr-simboard --once ends, cleanly, when
  * that host leaves. */
 static void wait_and_once(void **state)
@@ -73,6 +95,7 @@ static void wait_and_once(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(bad_command_lines), cmocka_unit_test(bad_files),
+                                       cmocka_unit_test(bad_firmware_files),
                                        cmocka_unit_test(wait_and_once)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -3,6 +3,8 @@
 #include "hal.h"
 #include "hal_event_ring.h"
 #include "nor_emul.h"
+#include "wdr_boot.h"
+#include "wdr_fw_config.h"
 #include "wdr_proto.h"
 #include <assert.h>
 #include <string.h>
@@ -25,6 +27,13 @@ static struct {
     uint64_t ramp_ticks;
     double amps;
     fifo to_board, to_host;
+    uint8_t img[FB_IMG_BLOCK_SIZE * FB_IMG_BLOCK_COUNT];
+    uint8_t img_programmed[FB_IMG_BLOCK_SIZE * FB_IMG_BLOCK_COUNT / FB_IMG_PROG_SIZE];
+    nor_emul img_nor;
+    int img_absent, has_record, resets, last_cause;
+    long feeds, tx_total, tx_at_reset;
+    uint32_t boots;
+    wdr_boot_record record;
 } fb;
 
 /* ---- Test API ------------------------------------------------------------------------------- */
@@ -36,6 +45,9 @@ void fb_power_cycle(void)
     nor_emul_cut_power_at(&fb.nor, 0, NOR_TEAR_NONE);
     nor_emul_fail_at(&fb.nor, 0);
     nor_emul_reboot(&fb.nor);
+    nor_emul_derive_programmed(&fb.img_nor);
+    nor_emul_reboot(&fb.img_nor);
+    fb.has_record = 0;
     hal_event_ring_reset(&fb.events);
     fb.now = fb.timer_at = fb.ramp_end = 0;
     fb.timer_armed = fb.ramp_playing = fb.tx_busy = 0;
@@ -46,8 +58,14 @@ void fb_power_cycle(void)
 void fb_init(void)
 {
     const hal_flash_geometry g = {FB_BLOCK_SIZE, FB_BLOCK_COUNT, FB_PROG_SIZE};
+    const hal_flash_geometry ig = {FB_IMG_BLOCK_SIZE, FB_IMG_BLOCK_COUNT, FB_IMG_PROG_SIZE};
     nor_emul_init(&fb.nor, &g, fb.flash, fb.programmed);
+    nor_emul_init(&fb.img_nor, &ig, fb.img, fb.img_programmed);
     fb.amps = 0;
+    fb.img_absent = fb.resets = 0;
+    fb.last_cause = -1;
+    fb.feeds = 0;
+    fb.boots = 0;
     fb_power_cycle();
 }
 
@@ -162,7 +180,7 @@ int hal_board_info_get(hal_board_info *out)
     out->dac_bits = FB_DAC_BITS;
     out->row_time_ns = FB_ROW_TIME_NS;
     out->caps = HAL_CAP_ILLUMINANT;
-    strcpy(out->name, "fake-board");
+    strcpy(out->name, FB_BOARD_NAME);
     return WDR_OK;
 }
 
@@ -256,7 +274,100 @@ int hal_usb_write(const uint8_t *buf, size_t len)
     if (len > WDR_PROTO_MAX_FRAME)
         return WDR_E_TOO_LARGE;
     fifo_put(&fb.to_host, buf, len);
+    fb.tx_total += (long)len;
     fb.tx_busy = 1;
     post(HAL_EV_USB_TX_DONE);
     return WDR_OK;
 }
+
+/* ---- Image flash, boot record, reset, watchdog ------------------------------------------------------ */
+
+uint8_t *fb_image_flash(void) { return fb.img; }
+void fb_set_image_flash(int present) { fb.img_absent = !present; }
+int fb_resets(void) { return fb.resets; }
+int fb_last_reset_cause(void) { return fb.last_cause; }
+long fb_watchdog_feeds(void) { return fb.feeds; }
+long fb_tx_bytes(void) { return fb.tx_total; }
+long fb_tx_bytes_at_reset(void) { return fb.tx_at_reset; }
+
+void fb_set_boot_record(const wdr_boot_record *r)
+{
+    fb.has_record = r != NULL;
+    if (r)
+        fb.record = *r;
+}
+
+static int img_read(void *ctx, uint32_t addr, void *buf, uint32_t len)
+{
+    return nor_emul_read(ctx, addr, buf, len);
+}
+static int img_erase(void *ctx, uint32_t block) { return nor_emul_erase(ctx, block); }
+static int img_prog(void *ctx, uint32_t addr, const void *buf, uint32_t len)
+{
+    return nor_emul_prog(ctx, addr, buf, len);
+}
+
+int fb_boot(uint8_t cause)
+{
+    wdr_boot_flash f = {fb.img_nor.g, &fb.img_nor, img_read, img_erase, img_prog};
+    wdr_boot_layout l;
+    wdr_boot_decision d;
+    wdr_boot_policy pol = {FB_BOARD_NAME, wdr_boot_key(), WDR_FW_IMAGE_LOAD_LO, WDR_FW_IMAGE_LOAD_HI, true};
+    fb.has_record = 0;
+    if (wdr_boot_layout_init(&l, &f.geo) || wdr_boot_decide(&f, &l, &pol, &d) || d.slot < 0)
+        return -1;
+    wdr_boot_record r;
+    memset(&r, 0, sizeof r);
+    r.magic = WDR_BOOT_RECORD_MAGIC_RAM;
+    r.slot = (uint8_t)d.slot;
+    r.testing = d.testing;
+    r.attempts = d.slots[d.slot].attempts;
+    r.reset_cause = cause;
+    r.boots = ++fb.boots;
+    r.floor = d.floor;
+    r.hdr = d.slots[d.slot].hdr;
+    wdr_boot_record_seal(&r);
+    fb_set_boot_record(&r);
+    return d.slot;
+}
+
+int hal_image_flash_geometry_get(hal_flash_geometry *g)
+{
+    if (fb.img_absent)
+        return WDR_E_UNSUPPORTED;
+    *g = fb.img_nor.g;
+    return WDR_OK;
+}
+
+int hal_image_flash_read(uint32_t addr, void *buf, uint32_t len)
+{
+    return fb.img_absent ? WDR_E_UNSUPPORTED : nor_emul_read(&fb.img_nor, addr, buf, len);
+}
+
+int hal_image_flash_erase(uint32_t block)
+{
+    return fb.img_absent ? WDR_E_UNSUPPORTED : nor_emul_erase(&fb.img_nor, block);
+}
+
+int hal_image_flash_prog(uint32_t addr, const void *buf, uint32_t len)
+{
+    return fb.img_absent ? WDR_E_UNSUPPORTED : nor_emul_prog(&fb.img_nor, addr, buf, len);
+}
+
+int hal_boot_record_get(struct wdr_boot_record *out)
+{
+    if (!fb.has_record || !wdr_boot_record_ok(&fb.record))
+        return WDR_E_UNSUPPORTED;
+    *out = fb.record;
+    return WDR_OK;
+}
+
+/* A test reboots the board itself (fb_power_cycle, fb_boot, th_boot): count and remember. */
+void hal_reset(uint8_t cause)
+{
+    fb.resets++;
+    fb.last_cause = cause;
+    fb.tx_at_reset = fb.tx_total;
+}
+
+void hal_watchdog_feed(void) { fb.feeds++; }

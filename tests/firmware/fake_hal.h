@@ -6,6 +6,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+struct wdr_boot_record;
+
 #define FB_WIDTH 64
 #define FB_HEIGHT 48
 #define FB_SENSOR_ID 77u
@@ -15,6 +17,11 @@
 #define FB_BLOCK_SIZE 4096u
 #define FB_BLOCK_COUNT 64u
 #define FB_PROG_SIZE 16u
+#define FB_BOARD_NAME "fake-board"
+/* The image flash: 2 floor blocks and two slots of 31 blocks (30 for the image: 120 KiB). */
+#define FB_IMG_BLOCK_SIZE 4096u
+#define FB_IMG_BLOCK_COUNT 64u
+#define FB_IMG_PROG_SIZE 16u
 
 /* Power on with erased flash (fresh board). */
 void fb_init(void);
@@ -51,6 +58,26 @@ int fb_scheduled(void);
 
 /* Make hal_adc_read_row fail with WDR_E_IO for this row (-1: never). */
 void fb_fail_adc_row(int row);
+
+/* ---- Image flash, boot record, reset ---------------------------------------------------------
+ * The image flash is a second NOR emulator (its own counter, not armed by fb_cut_power_at). */
+uint8_t *fb_image_flash(void);
+/* Whether the board has an image flash (1 by default; 0: hal_image_flash_* UNSUPPORTED). */
+void fb_set_image_flash(int present);
+/* What hal_boot_record_get returns from now (NULL: not started by a bootloader). */
+void fb_set_boot_record(const struct wdr_boot_record *r);
+/* The bootloader's part of a reset: wdr_boot_decide over the image flash with this board's
+ * policy, then the boot record it would pass (none when nothing is bootable), with cause.
+ * @return the slot chosen, or -1 */
+int fb_boot(uint8_t cause);
+/* hal_reset calls since fb_init, and the cause of the last. */
+int fb_resets(void);
+int fb_last_reset_cause(void);
+/* hal_watchdog_feed calls since fb_init. */
+long fb_watchdog_feeds(void);
+/* Bytes the board has handed to bulk IN since fb_init, and how many it had at the last hal_reset. */
+long fb_tx_bytes(void);
+long fb_tx_bytes_at_reset(void);
 
 double fb_illuminant(void);
 uint64_t fb_ramp_ticks(void); /* t_integration_ticks of the last ramp played */

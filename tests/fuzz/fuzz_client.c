@@ -4,7 +4,8 @@
  *   [k u8][len u16][bytes]   k % 4 = 0 raw bytes; 1 response to the last request, status =
  *   bytes[0], payload the rest; 2 event (ROW if bytes[0] is odd, else FRAME_END) of the last
  *   request; 3 a frame with opcode bytes[0] and flags bytes[1].
- * Then a session: connect, status, an upload, a capture and a stream. Out of input: the board
+ * Then a session: connect, status, an upload, FW_STATUS, an image upload, FW_CONFIRM, a capture
+ * and a stream. Out of input: the board
  * hangs up (WDR_E_IO), so nothing ever waits. */
 #include "fuzz_input.h"
 #include "transport.h"
@@ -103,6 +104,11 @@ static void session(wdr_client *c)
     static uint8_t table[6000];
     wdr_commit_reply reply;
     wdr_client_upload(c, WDR_KIND_LUT, table, sizeof table, NULL, NULL, &reply);
+    wdr_fw_status_report fs; /* protocol 1.4: the firmware update's answers */
+    wdr_fw_commit fc;
+    wdr_client_fw_status(c, &fs);
+    wdr_client_fw_upload(c, table, sizeof table, NULL, NULL, &fc);
+    wdr_client_fw_request(c, WDR_CMD_FW_CONFIRM);
     size_t pixels = (size_t)c->info.width * c->info.height;
     if (pixels > (1u << 20))
         return;

@@ -3,8 +3,11 @@
  * stb_image_write, a good session per protocol harness, and every reproducer of issue 14.
  * Run once by hand (fuzz_make_seeds CORPUS_DIR); the output is committed. The real
  * scenes and the LUTs wdrctl builds are copied in by make_seeds.sh. */
+#include "boot_test_util.h"
 #include "crc32.h"
+#include "fake_hal.h"
 #include "image_io.h"
+#include "make_seeds_image.h"
 #include "table_builders.h"
 #include "wdr_cal.h"
 #include "wdr_lut.h"
@@ -144,6 +147,85 @@ static void fw_rx(void)
     put("fw_rx", "raw_frames", raw, n);
     raw[at + 9] ^= 0x10;
     put("fw_rx", "raw_frames_garbled", raw, n);
+    /* the update commands (1.4), in front of any image */
+    uint8_t begin[8] = {0x00, 0x01, 0, 0, 0x78, 0x56, 0x34, 0x12}, chunk[4 + 64] = {0};
+    rec_n = 0;
+    rec_u8(1);
+    req(WDR_CMD_FW_STATUS, NULL, 0);
+    req(WDR_CMD_FW_BEGIN, begin, sizeof begin);
+    req(WDR_CMD_FW_CHUNK, chunk, sizeof chunk);
+    req(WDR_CMD_FW_COMMIT, NULL, 0);
+    req(WDR_CMD_FW_CONFIRM, NULL, 0);
+    req(WDR_CMD_FW_REVERT, NULL, 0);
+    req(WDR_CMD_REBOOT, NULL, 0);
+    req(WDR_CMD_STATUS, NULL, 0);
+    put("fw_rx", "session_fw_requests", rec, rec_n);
+}
+
+/* ---- fw_update: images signed with the development key, in update sessions ---- */
+static void rec_u32(uint32_t v)
+{
+    rec_u16((uint16_t)v);
+    rec_u16((uint16_t)(v >> 16));
+}
+
+static uint8_t *signed_image(const bt_key *key, uint8_t major, uint32_t counter, const char *board, size_t *n)
+{
+    bt_image_spec s = bt_spec(major, counter, 512);
+    s.board = board;
+    s.flags |= WDR_IMAGE_F_DEV_KEY;
+    uint8_t *img = malloc(1024);
+    *n = bt_image_build(img, 1024, &s, key, NULL);
+    return img;
+}
+
+static void image_rec(uint8_t op, const uint8_t *img, size_t n)
+{
+    rec_u8(op);
+    rec_u16((uint16_t)n);
+    rec_bytes(img, n);
+}
+
+static void fw_update(void)
+{
+    bt_key key;
+    bt_key_dev(&key);
+    size_t n1, n2, n3;
+    uint8_t *v1 = signed_image(&key, 1, 1, FB_BOARD_NAME, &n1), *v2 = signed_image(&key, 2, 2, FB_BOARD_NAME, &n2);
+    uint8_t *other = signed_image(&key, 3, 2, "other-board", &n3);
+    rec_n = 0; /* upload, test boot, confirm, reboot */
+    rec_u8(0);
+    image_rec(0, v1, n1);
+    image_rec(1, v2, n2);
+    rec_u8(8), rec_u8(5), rec_u8(6), rec_u8(8), rec_u8(5);
+    put("fw_update", "upload_confirm", rec, rec_n);
+    rec_n = 0; /* never confirmed: back to v1 after the attempts; a revert after another upload */
+    rec_u8(0);
+    image_rec(0, v1, n1);
+    image_rec(1, v2, n2);
+    rec_u8(8), rec_u8(8), rec_u8(8), rec_u8(8), rec_u8(5);
+    image_rec(1, v2, n2);
+    rec_u8(8), rec_u8(7), rec_u8(8), rec_u8(5);
+    put("fw_update", "unconfirmed_and_revert", rec, rec_n);
+    rec_n = 0; /* by hand: BEGIN, chunks out of order and in order, COMMIT; while streaming */
+    rec_u8(0);
+    image_rec(0, v1, n1);
+    rec_u8(2), rec_u32((uint32_t)n2), rec_u32(wdr_crc32(0, v2, n2));
+    rec_u8(3), rec_u32(100), rec_u16(16), rec_bytes(v2 + 100, 16);
+    rec_u8(3), rec_u32(0), rec_u16((uint16_t)n2), rec_bytes(v2, n2);
+    rec_u8(10), rec_u8(1), rec_u8(4), rec_u8(10), rec_u8(0), rec_u8(4), rec_u8(5);
+    put("fw_update", "chunks_by_hand", rec, rec_n);
+    rec_n = 0; /* refusals: another board, a flipped byte, a truncated image */
+    rec_u8(0);
+    image_rec(0, v1, n1);
+    image_rec(1, other, n3);
+    v2[200] ^= 1;
+    image_rec(1, v2, n2);
+    v2[200] ^= 1;
+    image_rec(1, v2, n2 - 16);
+    rec_u8(5);
+    put("fw_update", "refusals", rec, rec_n);
+    free(v1), free(v2), free(other);
 }
 
 /* ---- boot: tables sealed into slots, then pokes ---- */
@@ -327,9 +409,11 @@ int main(int argc, char **argv)
     root = argv[1];
     tables();
     fw_rx();
+    fw_update();
     boot();
     images();
     client();
+    make_image_seeds(put);
     return 0;
 }
 

@@ -8,7 +8,7 @@ set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 build=$1 seconds=$2
 shift 2
-targets=${*:-"fw_rx lut cal boot scene images client"}
+targets=${*:-"fw_rx fw_update lut cal boot scene images client image fw_image linux_board"}
 mkdir -p "$build/fuzz-artifacts"
 status=0
 for t in $targets; do

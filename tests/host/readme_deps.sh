@@ -41,7 +41,8 @@ for m in $modules; do
 done
 
 for pkg in $packages; do
-    pcs=$(dpkg -L "$pkg" 2>/dev/null | sed -n 's|.*/pkgconfig/\(.*\)\.pc$|\1|p')
+    # Libraries' modules only: /usr/share/pkgconfig holds data-only ones (systemd's unit folders).
+    pcs=$(dpkg -L "$pkg" 2>/dev/null | grep -v '^/usr/share/pkgconfig/' | sed -n 's|.*/pkgconfig/\(.*\)\.pc$|\1|p')
     [ -n "$pcs" ] || continue # a tool, not a library found with pkg-config
     used=
     for pc in $pcs; do

@@ -166,15 +166,21 @@ static void serve(scripted_board *b)
 static void *fake_main(void *arg)
 {
     scripted_board *b = arg;
-    if (b->listen_fd >= 0) {
-        if (!wait_readable(b, b->listen_fd))
-            return NULL;
-        b->fd = accept(b->listen_fd, NULL, NULL);
+    for (int session = 0; session < (b->sessions > 0 ? b->sessions : 1); session++) {
+        if (session && b->fd >= 0) {
+            close(b->fd); /* a board that reset: the next host finds it listening again */
+            b->fd = -1;
+        }
+        if (b->listen_fd >= 0) {
+            if (!wait_readable(b, b->listen_fd))
+                return NULL;
+            b->fd = accept(b->listen_fd, NULL, NULL);
+        }
+        if (b->fd >= 0)
+            serve(b);
+        if (b->fd >= 0)
+            shutdown(b->fd, SHUT_RDWR); /* the hang-up the host must notice */
     }
-    if (b->fd >= 0)
-        serve(b);
-    if (b->fd >= 0)
-        shutdown(b->fd, SHUT_RDWR); /* the hang-up the host must notice */
     return NULL;
 }
 

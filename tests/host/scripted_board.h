@@ -21,6 +21,7 @@ struct scripted_board {
     int opcodes[256];       /* request count per opcode */
     uint16_t last_seq;
     uint16_t width, height;
+    int sessions;           /* hosts served one after the other on a listening socket (0: one) */
     pthread_t thread;
     volatile int stop;
 };

@@ -12,6 +12,7 @@
 #   6 programs                     wdrctl, wdrsim, wdr-simboard, wdr-board, the firmware images
 # Programs are files, not folders: they may include anything below them.
 set(layer_firmware 0)
+set(layer_firmware/boot 0)
 set(layer_hal 0)
 set(layer_sim 1)
 set(layer_hal/sim 2)

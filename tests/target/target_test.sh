@@ -1,10 +1,12 @@
 #!/bin/sh
-# The firmware image on an emulated Cortex-M7 board (QEMU mps2-an500): boot it, upload a LUT and
-# a table of every form over the UART with wdrctl (unix-socket transport), capture replayed
-# frames, and check every pixel against the host build's kernel (target_data check).
-# usage: target_test.sh QEMU IMAGE WDRCTL TARGET_DATA WORKDIR
+# The firmware image on an emulated Cortex-M7 board (QEMU mps2-an500): flash the factory image
+# (bootloader + signed firmware) through GDB, boot it, upload a LUT and a table of every form
+# over the UART with wdrctl (unix-socket transport), capture replayed frames, and check every
+# pixel against the host build's kernel (target_data check).
+# usage: target_test.sh QEMU BOOT_ELF FACTORY_HEX WDRCTL TARGET_DATA WORKDIR
 set -eu
-qemu=$1 image=$2 wdrctl=$3 data=$4 dir=$5
+qemu=$1 boot=$2 factory=$3 wdrctl=$4 data=$5 dir=$6
+. "$(dirname "$0")/qemu_board.sh"
 W=32 H=24 FRAMES=4
 rm -rf "$dir" && mkdir -p "$dir"
 t0=$(date +%s.%N)
@@ -12,17 +14,13 @@ t0=$(date +%s.%N)
 "$data" lut "$dir/lut.bin"
 for form in moebius poly basis compact; do "$data" cal $form "$dir/$form.bin" $W $H; done
 
-"$qemu" -M mps2-an500 -nographic -monitor none -serial "unix:$dir/uart.sock,server=on,wait=off" \
-    -kernel "$image" -device "loader,file=$dir/frames.bin,addr=0x60800000,force-raw=on" &
-qpid=$!
-trap 'kill $qpid 2>/dev/null || true' EXIT
-i=0
-while [ ! -S "$dir/uart.sock" ]; do i=$((i + 1)); [ $i -lt 100 ] || { echo "QEMU did not start"; exit 1; }; sleep 0.1; done
+board_init "$qemu" "$boot" "$wdrctl" "$dir/frames.bin" "$dir"
+trap board_cut EXIT
+board_blank
+board_flash "$factory"
 
-export WDR_DEVICE="unix:$dir/uart.sock"
-# The emulated UART moves some 10-20 KB/s and CI machines are shared: long timeouts, and wait
-# for QEMU's socket to listen. Instruction counts are bench_target's; time is never asserted.
-ctl() { "$wdrctl" "$@" --timeout 20000 --wait 10000; }
+# The emulated UART moves some 10-20 KB/s and CI machines are shared: long timeouts (ctl), and
+# wait for QEMU's socket to listen. Instruction counts are bench_target's; time is never asserted.
 ctl info
 ctl lut upload "$dir/lut.bin"
 ctl capture -o "$dir/none-1.pfm" 2>/dev/null

@@ -1,7 +1,7 @@
 /* vm_board_model: the VM test's side of the virtual board's sensor model (vboard/vboard_model.h).
  *
  *   vm_board_model cal OUT.cal GAIN
- *       writes a calibration table for the Linux board (hal_linux_config.h geometry) whose every
+ *       writes a calibration table for the Linux board (vboard_pins.h geometry) whose every
  *       pixel maps a raw code y to GAIN * y + an offset of -32..31 that varies with row and column;
  *   vm_board_model check LUT.bin FRAME.pfm [GAIN]
  *       checks a captured frame pixel by pixel against what the model must have answered with
@@ -11,9 +11,9 @@
  *       prints the CRC-32 of a table file as `wdrctl status` shows a stored table's. */
 #include "crc32.h"
 #include "file_io.h"
-#include "hal_linux_config.h"
 #include "image_io.h"
 #include "vboard_model.h"
+#include "vboard_pins.h"
 #include "wdr_cal.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
@@ -23,7 +23,7 @@
 #include <string.h>
 #include <sysexits.h>
 
-#define CODE_MAX ((1u << HAL_LINUX_ADC_BITS) - 1u)
+#define CODE_MAX ((1u << VB_ADC_BITS) - 1u)
 
 /* The per-pixel offset of the test calibration: varies along rows and columns, so that a table
  * row applied to the wrong sensor row, or shifted by a column, shows. */
@@ -36,7 +36,7 @@ static int pixel_offset(unsigned row, unsigned col)
  * maps y to gain * y + pixel_offset(r, c). */
 static int write_cal(const char *path, float gain)
 {
-    enum { W = HAL_LINUX_WIDTH, H = HAL_LINUX_HEIGHT, N = W * H };
+    enum { W = VB_WIDTH, H = VB_HEIGHT, N = W * H };
     size_t size = wdr_cal_size(W, H, 2);
     float *coeffs = malloc(2u * N * sizeof *coeffs);
     uint8_t *flags = calloc(N, 1), *out = aligned_alloc(4, (size + 3u) & ~(size_t)3u);
@@ -48,7 +48,7 @@ static int write_cal(const char *path, float gain)
     }
     wdr_cal_header h;
     memset(&h, 0, sizeof h);
-    h.sensor_id = HAL_LINUX_SENSOR_ID;
+    h.sensor_id = VB_SENSOR_ID;
     h.width = W;
     h.height = H;
     h.form = WDR_FORM_POLY; /* c0 + c1 u, u = y */
@@ -119,9 +119,9 @@ static int check(const char *lut_path, const char *frame_path, int have_cal, dou
         fprintf(stderr, "vm_board_model: %s\n", err);
         return EX_DATAERR;
     }
-    if (w != HAL_LINUX_WIDTH || h != HAL_LINUX_HEIGHT) {
-        fprintf(stderr, "vm_board_model: %s: %dx%d, the board is %ux%u\n", frame_path, w, h, HAL_LINUX_WIDTH,
-                HAL_LINUX_HEIGHT);
+    if (w != VB_WIDTH || h != VB_HEIGHT) {
+        fprintf(stderr, "vm_board_model: %s: %dx%d, the board is %ux%u\n", frame_path, w, h, VB_WIDTH,
+                VB_HEIGHT);
         return EX_DATAERR;
     }
     long wrong = 0;

@@ -13,5 +13,6 @@ line=$(grep "^$name " "$results" | head -1)
 echo "$line"
 case $line in
 "$name PASS "*) exit 0 ;;
+"$name SKIP "*) exit 77 ;;
 *) exit 1 ;;
 esac

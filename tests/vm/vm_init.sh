@@ -3,7 +3,11 @@
 # on the FunctionFS gadget, wdrvb.ko for its lines and converters, mtdram for its flash) and
 # the host (wdrctl over libusb, through dummy_hcd). Each check prints one line
 #   @@RESULT <name> PASS|FAIL <detail>
-# which vm_run.sh collects for the CTest tests of tests/vm. Then the VM powers off.
+# which vm_run.sh collects for the CTest tests of tests/vm, and facts about the kernel
+#   @@FACT <name> <value>
+# which vm_table.sh compares between kernels. The main path runs once per wdr-board build in
+# /usr/bin (wdr-board: libgpiod 1.x; wdr-board-gpiod2: libgpiod 2.x), the probes once. The
+# gadget is made by the installed script (wdr-gadget), as on a real board. Then it powers off.
 /bin/busybox mkdir -p /proc /sys /dev /tmp /sbin /usr/sbin /usr/bin
 /bin/busybox --install -s
 mount -t proc proc /proc
@@ -15,12 +19,15 @@ exec >/dev/console 2>&1
 
 G=/sys/kernel/config/usb_gadget/wdrcam
 FFS=/dev/ffs-wdrcam
+CONFIG=/data/vm-wdrvb.json # boards/vm-wdrvb/wdr-board.json
 BOARD=
+BIN=wdr-board # the build under test
 LUT=/data/test.lut
 CAL=/data/test.cal
-. /data/params.env # CAL_GAIN, MTD_KIB, MTD_ERASE_KIB
+. /data/params.env # CAL_GAIN, MTD_KIB, MTD_ERASE_KIB, VM_QUICK
 
 result() { echo "@@RESULT $1 $2 $3"; }
+fact() { echo "@@FACT $1 $2"; }
 log() { echo "== $*"; }
 # wdrctl with a bound: a hung board must fail the check, not the whole VM run.
 ctl() { timeout 60 wdrctl "$@" --timeout 3000; }
@@ -40,19 +47,6 @@ load_modules() {
 # dummy_hcd with the given parameters: the host controller and the device controller in one.
 link_up() {
     insmod /lib/modules/dummy_hcd.ko "$@" || echo "insmod dummy_hcd $* failed"
-}
-
-gadget_create() {
-    mkdir -p $G && cd $G || return 1
-    echo 0x1209 >idVendor
-    echo 0x0001 >idProduct
-    mkdir -p strings/0x409 configs/c.1 functions/ffs.wdrcam
-    echo wdrcam >strings/0x409/product
-    echo vm-0001 >strings/0x409/serialnumber
-    ln -s functions/ffs.wdrcam configs/c.1/
-    cd /
-    mkdir -p $FFS
-    mount -t functionfs wdrcam $FFS
 }
 
 host_device() { # the sysfs directory of the board as the host sees it
@@ -80,17 +74,16 @@ wait_for() { # seconds, command...: poll until the command succeeds, by the cloc
 # Start wdr-board, bind the gadget (the kernel unbinds the UDC when the program exits), wait
 # until the host has enumerated the board.
 board_start() {
-    wdr-board >>/tmp/board.log 2>&1 &
+    $BIN --config $CONFIG >>/tmp/board.log 2>&1 &
     BOARD=$!
-    wait_for 10 test -e $FFS/ep1 || { log "wdr-board wrote no descriptors"; cat /tmp/board.log; return 1; }
-    ls /sys/class/udc >$G/UDC || return 1
+    wdr-gadget bind || { log "wdr-gadget bind failed"; cat /tmp/board.log; return 1; }
     wait_for 10 host_device || { log "the host did not enumerate the board"; dmesg | tail -20; return 1; }
     wait_for 5 host_node_ready
     sleep 0.3
 }
 
 board_stop() {
-    echo "" >$G/UDC 2>/dev/null
+    wdr-gadget unbind
     [ -n "$BOARD" ] && kill $BOARD 2>/dev/null && wait $BOARD 2>/dev/null
     BOARD=
 }
@@ -134,11 +127,106 @@ run() { # name, command...: one check (not in a subshell: it may restart the boa
 
 # ---- Checks ---------------------------------------------------------------------------------
 
-bringup_names() { # device: wdr-board must fail naming it and errno
+bringup_names() { # config device: wdr-board must fail naming the device and errno
     local out
-    out=$(timeout 10 wdr-board 2>&1)
+    out=$(timeout 10 wdr-board --config $1 2>&1)
     echo "$out"
-    echo "$out" | grep -q "$1" && echo "$out" | grep -qi 'no such file'
+    echo "$out" | grep -q "$2" && echo "$out" | grep -qi 'no such file'
+}
+
+self_test() { # the build's self-test must pass and say so
+    local out rc
+    out=$(timeout 30 $BIN --config $CONFIG --self-test 2>&1); rc=$?
+    echo "$out"
+    [ $rc = 0 ] && echo "$out" | grep -q '^self-test: PASS'
+}
+
+self_test_unbound() { # wdrvb.ko unbound_line=N: exit 1 naming line $2 at offset $1
+    local out rc
+    out=$(timeout 30 $BIN --config $CONFIG --self-test 2>&1); rc=$?
+    echo "$out"
+    echo "exit $rc"
+    [ $rc = 1 ] && echo "$out" | grep -q "^FAIL line $2 (/dev/gpiochip[0-9]* offset $1): driven 1, reads 0"
+}
+
+# SIGTERM during a stream: wdr-board exits 0 and says so, the kernel unbinds the gadget, the
+# host's stream ends (no hang), and after a restart both tables are intact and a capture checks.
+check_sigterm() {
+    local resets0 pid rc lut cal
+    lut=$(vm_board_model crc $LUT) cal=$(vm_board_model crc $CAL)
+    resets0=$(model_count resets)
+    wdrctl stream --timeout 5000 >/tmp/stream.log 2>&1 &
+    pid=$!
+    wait_for 30 frames_started_since $resets0
+    kill -TERM $BOARD
+    wait $BOARD; rc=$?
+    BOARD=
+    echo "wdr-board exit status after SIGTERM mid-stream: $rc"
+    tail -1 /tmp/board.log
+    wait_for 10 sh -c "test -z \"\$(cat $G/UDC)\"" || { echo "UDC still bound: $(cat $G/UDC)"; return 1; }
+    wait $pid; echo "host stream ended: exit $?"
+    [ $rc = 0 ] && tail -1 /tmp/board.log | grep -q 'stopped on signal 15' || return 1
+    board_start || return 1
+    status=$(ctl status)
+    echo "$status" | grep -q "crc $lut" && echo "$status" | grep -q "crc $cal" || { echo "$status"; echo "tables lost (want $lut, $cal)"; return 1; }
+    echo "after the restart: LUT crc $lut and calibration crc $cal intact"
+    capture_check sigterm $CAL_GAIN
+}
+
+# What wdr-board.service does, in a loop: start wdr-board, bind the gadget, restart it when it
+# exits with 75 (hal_reset: a REBOOT request).
+supervise() {
+    local rc
+    while :; do
+        $BIN --config $CONFIG >>/tmp/board.log 2>&1 &
+        echo $! >/tmp/board.pid
+        wdr-gadget bind >/dev/null 2>&1
+        wait $(cat /tmp/board.pid); rc=$?
+        echo "supervisor: $BIN exited with $rc" >>/tmp/board.log
+        [ $rc = 75 ] || return 0
+    done
+}
+
+# REBOOT over USB: wdr-board answers, exits 75 (ramp stopped, endpoints closed), the supervisor
+# starts it again and the host finds the board from a new start.
+check_reboot() {
+    local out pid0
+    board_stop
+    supervise &
+    wait_for 15 host_device || { echo "the supervised board never enumerated"; return 1; }
+    wait_for 5 host_node_ready
+    sleep 0.3
+    pid0=$(cat /tmp/board.pid)
+    out=$(timeout 60 wdrctl reboot --timeout 3000 2>&1); rc=$?
+    echo "$out"
+    grep 'supervisor:' /tmp/board.log | tail -1
+    [ $rc = 0 ] && grep -q "supervisor: $BIN exited with 75" /tmp/board.log && [ "$(cat /tmp/board.pid)" != "$pid0" ] ||
+        { echo "wdrctl reboot: exit $rc"; kill $(cat /tmp/board.pid); return 1; }
+    ctl info >/dev/null || { echo "no answer after the reboot"; return 1; }
+    echo "rebooted: pid $pid0 exited with 75, pid $(cat /tmp/board.pid) answers"
+    wdr-gadget unbind
+    kill $(cat /tmp/board.pid) && wait
+}
+
+gadget_no_udc() { # the script refuses to bind without a UDC, naming where it looked
+    local out rc
+    mkdir -p /tmp/no-udc
+    out=$(WDR_UDC_CLASS=/tmp/no-udc wdr-gadget bind 2>&1); rc=$?
+    echo "$out"; echo "exit $rc"
+    [ $rc = 69 ] && echo "$out" | grep -q 'no USB device controller in /tmp/no-udc'
+}
+
+gadget_up() {
+    wdr-gadget up || return 1
+    echo "idVendor $(cat $G/idVendor) idProduct $(cat $G/idProduct) product $(cat $G/strings/0x409/product)"
+    [ "$(cat $G/idVendor)" = 0x1209 ] && [ "$(cat $G/idProduct)" = 0x0001 ] && grep -q " $FFS functionfs " /proc/mounts
+}
+
+gadget_down() {
+    board_stop
+    wdr-gadget down || return 1
+    wdr-gadget status
+    [ ! -d $G ] && ! grep -q " $FFS functionfs " /proc/mounts
 }
 
 # In the asan build the programs carry ASan and UBSan: any report they printed fails this.
@@ -230,29 +318,67 @@ probe_link() { # speed, dummy_hcd parameters...
     capture_check $want $CAL_GAIN
 }
 
+flash_fresh() { # mtdram comes up erased
+    rmmod mtdram && insmod /lib/modules/mtdram.ko total_size="$MTD_KIB" erase_size="$MTD_ERASE_KIB" ||
+        echo "mtdram reload failed"
+}
+
 # ---- The run --------------------------------------------------------------------------------
 
-log "kernel $(uname -r), $(nproc) CPU, init at $(cut -d' ' -f1 /proc/uptime) s"
+# The main path of one wdr-board build: self-test, tables that survive a restart, captures
+# checked pixel by pixel, a stream, SIGTERM, the model's counters.
+main_path() { # prefix
+    local p=$1
+    run ${p}_self_test self_test
+    if ! board_start; then
+        result ${p}_board_start FAIL "$BIN did not come up"
+        return 1
+    fi
+    result ${p}_board_start PASS "$BIN enumerated on $(vm_usbprobe speed) speed"
+    run ${p}_info check_info
+    run ${p}_status check_status
+    run ${p}_lut_survives_restart upload_survives_restart lut $LUT LUT
+    run ${p}_capture_pixels capture_check raw
+    [ -n "$VM_QUICK" ] && return 0
+    run ${p}_stream check_stream
+    # tests/vm/v4l2: wdrctl stream --v4l2 read by v4l2-ctl, once per kernel (the libgpiod 1.x build)
+    [ $p = gpiod1 ] && [ -f /v4l2/checks.sh ] && . /v4l2/checks.sh
+    run ${p}_cal_survives_restart upload_survives_restart cal $CAL calibration
+    run ${p}_capture_calibrated capture_check calibrated $CAL_GAIN
+    run ${p}_sigterm check_sigterm
+    run ${p}_model_counters counters_zero
+}
+
+t_init=$(cut -d' ' -f1 /proc/uptime)
+log "kernel $(uname -r), $(nproc) CPU, init at $t_init s"
+fact kernel "$(uname -r)"
+fact init_at_s "$t_init"
 load_modules
 link_up
-gadget_create
-run bringup_message_spi bringup_names /dev/spidev0.0 # no virtual board yet
+fact udc "$(ls /sys/class/udc | tr '\n' ' ')"
+run gadget_up gadget_up
+run gadget_no_udc gadget_no_udc
+run bringup_message_spi bringup_names $CONFIG /dev/spidev0.0 # no virtual board yet
 insmod /lib/modules/wdrvb.ko
-run bringup_message bringup_names /dev/mtd2 # every device but the table flash
-ln -sf mtd0 /dev/mtd2 # hal_linux_config.h wants the table partition at mtd2; mtdram is mtd0
-if ! board_start; then
-    result board_start FAIL "wdr-board did not come up"
-else
-    result board_start PASS "wdr-board enumerated on $(vm_usbprobe speed) speed"
-    run info check_info
-    run status check_status
-    run lut_survives_restart upload_survives_restart lut $LUT LUT
-    run capture_pixels capture_check raw
-    run stream check_stream
-    [ -f /v4l2/checks.sh ] && . /v4l2/checks.sh # tests/vm/v4l2: wdrctl stream --v4l2 read by v4l2-ctl
-    run cal_survives_restart upload_survives_restart cal $CAL calibration
-    run capture_calibrated capture_check calibrated $CAL_GAIN
-    run model_counters counters_zero
+fact gpio_devices "$(ls /sys/bus/gpio/devices | tr '\n' ' ')"
+fact mtd "$(tr '\n' ';' </proc/mtd)"
+sed 's/"mtd": "[^"]*"/"mtd": "wdr-tables"/' $CONFIG >/tmp/wrong-mtd.json
+run bringup_message_mtd bringup_names /tmp/wrong-mtd.json "MTD partition 'wdr-tables' (no such partition in /proc/mtd)"
+
+for build in gpiod1:wdr-board gpiod2:wdr-board-gpiod2; do
+    BIN=${build#*:}
+    if ! command -v $BIN >/dev/null; then
+        result ${build%%:*}_self_test SKIP "$BIN not in this initramfs (see vm_run.sh: libgpiod 2.x build skipped)"
+        continue
+    fi
+    fact ${build%%:*}_board "$($BIN --config $CONFIG --self-test 2>&1 | head -1)"
+    flash_fresh # each build starts from an erased flash: the same checks, the same answers
+    main_path ${build%%:*}
+    board_stop
+done
+BIN=wdr-board
+
+if [ -z "$VM_QUICK" ] && board_start; then
     run probe_autosuspend probe_autosuspend
     run probe_control_requests probe_control
     run probe_bus_reset probe_bus_reset
@@ -260,10 +386,28 @@ else
     run probe_superspeed probe_link super is_super_speed=1
     run probe_fullspeed probe_link full is_high_speed=0
     run model_counters_end counters_zero
+    run reboot check_reboot
+    board_stop
 fi
+
+# One line left unconnected (row address bit 3, offset 19): each build's self-test must name it.
+rmmod wdrvb
+insmod /lib/modules/wdrvb.ko unbound_line=19
+for build in gpiod1:wdr-board gpiod2:wdr-board-gpiod2; do
+    BIN=${build#*:}
+    command -v $BIN >/dev/null || continue
+    run ${build%%:*}_self_test_unbound self_test_unbound 19 'row_address\[3\]'
+done
+BIN=wdr-board
+rmmod wdrvb
+insmod /lib/modules/wdrvb.ko
+
+run gadget_down gadget_down
 run sanitizer_reports check_sanitizers
+fact dmesg_warnings "$(dmesg | grep -c -E 'WARNING|BUG:|Call Trace') (WARNING, BUG or a call trace)"
+fact dmesg_usb "$(dmesg | grep -E 'dummy_hcd|dummy_udc|functionfs|ffs|gadget|usb 1-1|usb 2-1' | sed 's/^\[[^]]*\] //; s/[0-9]\+/N/g' | sort -u | tr '\n' ';' | cut -c1-400)"
+fact checks_done_at_s "$(cut -d' ' -f1 /proc/uptime)"
 log "board log"
 sed 's/^/  board| /' /tmp/board.log
 echo "@@DONE"
-board_stop
 poweroff -f

@@ -17,6 +17,13 @@ v4l2_load() {
 
 v4l2_format_set() { v4l2-ctl -d $V4L2_DEV --get-fmt-video 2>/dev/null | grep -q "Width/Height *: *$1/$2"; }
 
+v4l2_read() { # grey|y16, bytes of 3 frames: as any V4L2 program reads them (v4l2-ctl exits 0
+    # even when STREAMON fails, so the file's size says whether the frames came)
+    rm -f /tmp/v4l2.$1
+    timeout 60 v4l2-ctl -d $V4L2_DEV --stream-mmap --stream-count=3 --stream-to=/tmp/v4l2.$1 >/tmp/v4l2-reader.log 2>&1 &&
+        [ "$(wc -c </tmp/v4l2.$1)" -ge $2 ]
+}
+
 v4l2_check() { # grey|y16
     local fmt=$1 w h bpp=1 writer
     w=$(ctl info | sed -n 's/^geometry: *\([0-9]*\)x\([0-9]*\)/\1/p')
@@ -26,8 +33,11 @@ v4l2_check() { # grey|y16
     writer=$!
     wait_for 30 v4l2_format_set $w $h || { cat /tmp/v4l2-writer.log; echo "the writer never set ${w}x$h"; kill $writer; return 1; }
     v4l2-ctl -d $V4L2_DEV --get-fmt-video
-    timeout 60 v4l2-ctl -d $V4L2_DEV --stream-mmap --stream-count=3 --stream-to=/tmp/v4l2.$fmt
+    # v4l2loopback 0.13 and later (trixie's 0.15) refuse STREAMON (EIO) until the writer has
+    # sent its first frame; 0.12 (bookworm's) waits. So the reader asks again until then.
+    wait_for 60 v4l2_read $fmt $((3 * w * h * bpp))
     local rc=$?
+    cat /tmp/v4l2-reader.log
     kill $writer 2>/dev/null
     wait $writer 2>/dev/null
     cat /tmp/v4l2-writer.log
