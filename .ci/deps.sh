@@ -3,8 +3,8 @@
 # the exact apt-get line and fails. Sourced by .ci/demo and .ci/test.
 WDR_PACKAGES="build-essential cmake pkg-config libcjson-dev libpng-dev libstb-dev libopenexr-dev \
 libcmocka-dev libusb-1.0-0-dev libgpiod-dev gnuplot-nox gcc-arm-none-eabi libnewlib-arm-none-eabi \
-clang-tidy cppcheck groff-base qemu-system-arm gdb-multiarch parallel jq bc \
-qemu-system-x86 busybox-static cpio kmod xz-utils systemd clang-14 libclang-rt-14-dev \
+clang-tidy cppcheck groff-base strace qemu-system-arm gdb-multiarch parallel jq bc \
+qemu-system-x86 busybox-static cpio kmod xz-utils systemd v4l-utils clang-14 libclang-rt-14-dev \
 libmbedtls-dev libssl-dev openssl valgrind"
 # firmware/boot/fetch_mbedtls.sh fetches the source of Debian's mbedtls for the Cortex-M7 into build-m7
 # (apt-get source through a private sources list, no install).
@@ -12,6 +12,8 @@ libmbedtls-dev libssl-dev openssl valgrind"
 # and libgpiod 2.x from bookworm-backports through a private sources list in the build folder)
 # with apt-get download, no install; it builds its module with gcc-12. systemd: for
 # systemd-analyze verify of wdr-board.service (tests/linux), xz-utils: trixie's modules.
+# tests/vm/v4l2 also downloads and builds Debian's v4l2loopback-dkms source the same way;
+# v4l-utils gives v4l2-ctl, strace serves the staged-install test (tests/host/staged_install.sh).
 
 wdr_missing_packages() {
     for p in $WDR_PACKAGES; do

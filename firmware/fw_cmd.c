@@ -280,16 +280,18 @@ static int illuminant_decode(const wdr_packet *pkt, double *amps)
     return !(u >> 63) && ((u >> 52) & 0x7ffu) != 0x7ffu;
 }
 
+/* A photocurrent lights every pixel uniformly; an empty payload (1.4) puts the scene back. */
 static void cmd_illuminant(wdr_fw *fw, const wdr_packet *pkt)
 {
     double amps = 0;
-    int st = pkt->h.length == 4 || pkt->h.length == 8 ? WDR_ST_OK : WDR_ST_BAD_LENGTH;
+    uint32_t len = pkt->h.length;
+    int st = len == 0 || len == 4 || len == 8 ? WDR_ST_OK : WDR_ST_BAD_LENGTH;
     if (!st && !(fw->board.caps & HAL_CAP_ILLUMINANT))
         st = WDR_ST_UNSUPPORTED;
-    if (!st && !illuminant_decode(pkt, &amps))
+    if (!st && len && !illuminant_decode(pkt, &amps))
         st = WDR_ST_BAD_ARG;
     if (!st) {
-        int err = hal_set_illuminant(amps);
+        int err = len ? hal_set_illuminant(amps) : hal_restore_scene();
         st = err == WDR_E_INVAL ? WDR_ST_BAD_ARG : wdr_status_from_err(err);
     }
     reply_status(fw, pkt, st);

@@ -170,5 +170,9 @@ void hal_watchdog_feed(void);
 /* Light every pixel with the same photocurrent, in amperes (caps has HAL_CAP_ILLUMINANT).
  * @retval WDR_OK  @retval WDR_E_UNSUPPORTED  @retval WDR_E_INVAL negative or not finite */
 int hal_set_illuminant(double amps);
+/* Take the uniform light away: the pixels see the scene they saw before hal_set_illuminant
+ * (nothing changes when no uniform light is on). @retval WDR_OK  @retval WDR_E_UNSUPPORTED
+ * @retval WDR_E_NOMEM */
+int hal_restore_scene(void);
 
 #endif

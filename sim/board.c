@@ -1,4 +1,5 @@
 #include "board.h"
+#include "data_path.h"
 #include "file_io.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
@@ -8,10 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-#ifndef WDR_SOURCE_DIR
-#define WDR_SOURCE_DIR "."
-#endif
+#include <unistd.h>
 
 void wdr_board_defaults(wdr_board *b)
 {
@@ -265,11 +263,15 @@ int wdr_board_load(const char *path, wdr_board *b, char *err, int errlen)
     return rc ? rc : wdr_board_validate(b, path, err, errlen);
 }
 
-void wdr_board_path(const char *name, char *out, int outlen)
+void wdr_board_path(const char *name, char *out, int outlen) { wdr_data_path(WDR_DATA_BOARDS, name, out, outlen); }
+
+int wdr_board_load_named(const char *name, wdr_board *b, char *err, int errlen)
 {
-    const char *dir = getenv("WDR_BOARDS_DIR");
-    if (strchr(name, '/') || strstr(name, ".json"))
-        snprintf(out, (size_t)outlen, "%s", name);
-    else
-        snprintf(out, (size_t)outlen, "%s/%s/board.json", dir ? dir : WDR_SOURCE_DIR "/boards", name);
+    char path[4200];
+    wdr_board_path(name, path, sizeof path);
+    if (wdr_data_is_name(name) && access(path, F_OK) != 0) {
+        wdr_data_unknown(WDR_DATA_BOARDS, name, err, errlen);
+        return WDR_E_IO;
+    }
+    return wdr_board_load(path, b, err, errlen);
 }

@@ -75,7 +75,12 @@ int wdr_board_load(const char *path, wdr_board *b, char *err, int errlen);
 /* Check ranges of every field; same message and codes as wdr_board_load. */
 int wdr_board_validate(const wdr_board *b, const char *path, char *err, int errlen);
 
-/* Path of a board by name: $WDR_BOARDS_DIR or the source tree's boards/ folder. */
+/* Path of a board by name: NAME/board.json in $WDR_BOARDS_DIR or the installed boards folder
+ * (sim/data_path.h); a path is kept as given. */
 void wdr_board_path(const char *name, char *out, int outlen);
+
+/* A board by name or path, read as wdr_board_load does. An unknown name gets a message that
+ * lists the known ones. @retval as wdr_board_load */
+int wdr_board_load_named(const char *name, wdr_board *b, char *err, int errlen);
 
 #endif

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 
 static int io_fail(char *err, int errlen, const char *path, const char *what)
@@ -173,4 +174,37 @@ int wdr_pfm_read(const char *path, float **px, int *w, int *h, char *err, int er
         *px = NULL;
     }
     return rc;
+}
+
+/* ---- Output names ---------------------------------------------------------------------- */
+
+int wdr_path_has_ext(const char *path, const char *ext)
+{
+    size_t n = strlen(path), e = strlen(ext);
+    return n > e && !strcasecmp(path + n - e, ext);
+}
+
+int wdr_output_name_check(const char *path, const char *exts, char *err, int errlen)
+{
+    char ext[16], said[128] = "";
+    int count = 0;
+    for (const char *p = exts; *p;) {
+        size_t len = strcspn(p, " ");
+        if (len && len < sizeof ext) {
+            snprintf(ext, sizeof ext, "%.*s", (int)len, p);
+            if (wdr_path_has_ext(path, ext))
+                return WDR_OK;
+            count++;
+        }
+        p += len + (p[len] == ' ');
+    }
+    /* "must end in .png or .pfm": the list as a reader says it */
+    for (const char *p = exts; *p; count--) {
+        size_t len = strcspn(p, " ");
+        size_t used = strlen(said);
+        snprintf(said + used, sizeof said - used, "%s%.*s", used ? (count == 1 ? " or " : ", ") : "", (int)len, p);
+        p += len + (p[len] == ' ');
+    }
+    snprintf(err, (size_t)errlen, "output '%s' must end in %s", path, said);
+    return WDR_E_INVAL;
 }

@@ -8,6 +8,13 @@
  * anything is allocated, as is one claiming more pixels than the file's bytes can hold. */
 #define WDR_IMAGE_MAX_PIXELS (64u << 20)
 
+/* The one output-name rule of every program: an output's name ends in one of the extensions
+ * exts lists (".png .pfm"; any case), and that extension says the format written.
+ * @retval WDR_OK  @retval WDR_E_INVAL (err: "output 'w.tiff' must end in .png or .pfm") */
+int wdr_output_name_check(const char *path, const char *exts, char *err, int errlen);
+/* Whether path ends in ext (".pfm"), in any case, after at least one character. */
+int wdr_path_has_ext(const char *path, const char *ext);
+
 /* Write a grey PNG of w*h samples; bits is 8 or 16 (16-bit samples are big-endian in the file).
  * @retval WDR_OK, WDR_E_IO (err names the file), WDR_E_INVAL */
 int wdr_png_write_gray(const char *path, const uint16_t *px, int w, int h, int bits, char *err, int errlen);

@@ -1,6 +1,7 @@
 /* Scene files: cJSON in, a photocurrent map and effect switches out. Bad input is named by
  * file, field and value; nothing here asserts on what a file says. */
 #include "wdr_scene.h"
+#include "data_path.h"
 #include "file_io.h"
 #include "hdr_image.h"
 #include "resample.h"
@@ -11,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 typedef struct scene_ctx {
     const char *path;
@@ -514,11 +516,17 @@ int wdr_scene_load_exposed(const char *path, const wdr_board *b, const wdr_expos
     out->width = b->width;
     out->height = b->height;
     out->chip_seed = out->frame_seed = 1;
-    scene_ctx c = {path, b, out, ex, NULL, err, errlen};
+    char file[4200];
+    wdr_data_path(WDR_DATA_SCENES, path, file, sizeof file); /* a name: the installed scenes */
+    scene_ctx c = {file, b, out, ex, NULL, err, errlen};
 
-    char *text = wdr_read_text(path);
+    char *text = wdr_read_text(file);
+    if (!text && wdr_data_is_name(path) && access(file, F_OK) != 0) {
+        wdr_data_unknown(WDR_DATA_SCENES, path, err, errlen);
+        return WDR_E_IO;
+    }
     if (!text) {
-        snprintf(err, (size_t)errlen, "%s: cannot read scene file", path);
+        snprintf(err, (size_t)errlen, "%s: cannot read scene file", file);
         return WDR_E_IO;
     }
     cJSON *root = cJSON_Parse(text);

@@ -255,6 +255,12 @@ int wdr_sim_set_photocurrent(wdr_sim *s, const float *amps)
     return WDR_OK;
 }
 
+const float *wdr_sim_photocurrent(const wdr_sim *s, double *uniform_amps)
+{
+    *uniform_amps = s->uniform_amps;
+    return s->amps;
+}
+
 /* Devices of pixel (x, y) as drawn for this chip: the calibration's ground truth. */
 int wdr_sim_pixel_devices(const wdr_sim *s, int x, int y, wdr_sim_pixel_truth *out)
 {

@@ -42,7 +42,9 @@ typedef struct wdr_exposure {
 /* "auto" or a number of A per cd/m2 in (0, 1]. @retval WDR_OK  @retval WDR_E_INVAL */
 int wdr_exposure_parse(const char *text, wdr_exposure *out);
 
-/* Read a scene for board b. Every error names the file, the field and the value.
+/* Read a scene for board b: path is a scene file, or a name ("window") looked up in
+ * $WDR_SCENES_DIR or the installed scenes (sim/data_path.h; an unknown name's message lists the
+ * known ones). Every error names the file, the field and the value.
  * @retval WDR_OK
  * @retval WDR_E_IO        scene or image file missing or unreadable
  * @retval WDR_E_INVAL     not JSON, unknown field or value, out of range, NaN/Inf pixels

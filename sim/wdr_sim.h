@@ -53,6 +53,9 @@ int wdr_sim_set_lut(wdr_sim *s, const wdr_lut_view *lut);
  * @retval WDR_OK, WDR_E_INVAL (NaN, negative or above 1 A), WDR_E_NOMEM */
 int wdr_sim_set_uniform(wdr_sim *s, double amps);
 int wdr_sim_set_photocurrent(wdr_sim *s, const float *amps);
+/* The illumination set now: the width*height map (owned by s, valid until the next set), or
+ * NULL when every pixel sees *uniform_amps. Lets a caller put a scene back after uniform light. */
+const float *wdr_sim_photocurrent(const wdr_sim *s, double *uniform_amps);
 
 /* Global reset, integration and compare for every pixel; afterwards each hold node holds its
  * value. @retval WDR_OK, WDR_E_NO_TABLE (no LUT set) */

@@ -378,3 +378,5 @@ int hal_set_illuminant(double amps)
     (void)amps;
     return WDR_E_UNSUPPORTED;
 }
+
+int hal_restore_scene(void) { return WDR_E_UNSUPPORTED; }

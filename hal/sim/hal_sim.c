@@ -33,6 +33,11 @@ static struct {
     int row_selected;      /* -1: none */
     int converted;         /* adc_row holds a conversion */
     uint16_t *adc_row;
+
+    /* The scene behind a uniform illuminant, kept so that hal_restore_scene can put it back. */
+    int scene_saved;
+    float *scene_amps;     /* NULL: the scene itself was uniform, at scene_uniform */
+    double scene_uniform;
 } B;
 
 static atomic_int stop_flag;
@@ -214,16 +219,57 @@ void hal_ramp_stop(void) { B.ramp_done_at = NEVER; }
 
 /* ---- Light --------------------------------------------------------------------------------- */
 
+/* Copy what the pixels see before the first uniform light replaces it. */
+static int save_scene(void)
+{
+    if (B.scene_saved)
+        return WDR_OK;
+    const float *amps = wdr_sim_photocurrent(B.sensor, &B.scene_uniform);
+    if (amps) {
+        size_t n = (size_t)B.board.width * B.board.height;
+        if (!(B.scene_amps = malloc(n * sizeof *amps)))
+            return WDR_E_NOMEM;
+        memcpy(B.scene_amps, amps, n * sizeof *amps);
+    }
+    B.scene_saved = 1;
+    return WDR_OK;
+}
+
+static void forget_scene(void)
+{
+    free(B.scene_amps);
+    B.scene_amps = NULL;
+    B.scene_saved = 0;
+}
+
 int hal_set_illuminant(double amps)
 {
     if (!isfinite(amps) || amps < 0)
         return WDR_E_INVAL;
-    return wdr_sim_set_uniform(B.sensor, amps);
+    int rc = save_scene();
+    return rc ? rc : wdr_sim_set_uniform(B.sensor, amps);
+}
+
+int hal_restore_scene(void)
+{
+    if (!B.scene_saved)
+        return WDR_OK; /* no uniform light on: the scene is in place */
+    int rc = B.scene_amps ? wdr_sim_set_photocurrent(B.sensor, B.scene_amps)
+                          : wdr_sim_set_uniform(B.sensor, B.scene_uniform);
+    if (rc == WDR_OK)
+        forget_scene();
+    return rc;
 }
 
 int hal_sim_set_illuminant(double amps) { return hal_set_illuminant(amps); }
 
-int hal_sim_set_scene(const float *amps) { return amps ? wdr_sim_set_photocurrent(B.sensor, amps) : WDR_E_INVAL; }
+int hal_sim_set_scene(const float *amps)
+{
+    if (!amps)
+        return WDR_E_INVAL;
+    forget_scene(); /* a new scene: nothing older to go back to */
+    return wdr_sim_set_photocurrent(B.sensor, amps);
+}
 
 /* ---- Emulator control ---------------------------------------------------------------------- */
 
@@ -272,6 +318,7 @@ void hal_sim_teardown(void)
     hal_sim_boot_teardown();
     wdr_sim_destroy(B.sensor);
     free(B.adc_row);
+    free(B.scene_amps);
     memset(&B, 0, sizeof B);
     hal_sim_exit_on_disconnect = 0;
     hal_sim_eof_fd = -1;

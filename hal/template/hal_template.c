@@ -154,6 +154,7 @@ int hal_set_illuminant(double amps)
     return WDR_E_UNSUPPORTED;
 }
 
+int hal_restore_scene(void) { return WDR_E_UNSUPPORTED; }
 /* ---- Firmware images, boot record, reset, watchdog: no bootloader on the template board ------ */
 
 int hal_image_flash_geometry_get(hal_flash_geometry *g)

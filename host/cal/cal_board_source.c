@@ -44,10 +44,15 @@ int wdr_cal_board_open(wdr_cal_board *d, wdr_client *client, wdr_cal_ask_level_f
     return WDR_OK;
 }
 
-void wdr_cal_board_close(wdr_cal_board *d)
+int wdr_cal_board_close(wdr_cal_board *d)
 {
+    int rc = WDR_OK;
+    if (d->simulated && d->amps >= 0) /* we lit it: every later capture must see the scene again */
+        rc = wdr_client_restore_scene(d->client);
+    d->amps = -1;
     free(d->codes);
     d->codes = NULL;
+    return rc;
 }
 
 int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double *added_s, double *done_v,

@@ -24,7 +24,9 @@ typedef struct wdr_cal_board {
 /* Wrap a connected client; *src then captures from the board.
  * @retval WDR_OK, WDR_E_NOMEM */
 int wdr_cal_board_open(wdr_cal_board *d, wdr_client *client, wdr_cal_ask_level_fn ask, wdr_cal_source *src);
-void wdr_cal_board_close(wdr_cal_board *d);
+/* Done with the board: a simulated board that calibration lit goes back to its scene, whether
+ * calibration succeeded or not. @retval WDR_OK, or the client's error putting the scene back */
+int wdr_cal_board_close(wdr_cal_board *d);
 
 /* Store the LUT the board will image with, continued past its last code by the calibration
  * margin (wdr_cal_lut_extend), so that pixels with high thresholds cross at the dimmest

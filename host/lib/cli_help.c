@@ -250,9 +250,10 @@ void cli_print_man(FILE *f, const cli_program *p)
     fputs(".SH \"COMMON OPTIONS\"\n.TP\n.B \\-h, \\-\\-help\nthe options of the program or command\n"
           ".TP\n.B \\-\\-version\nthe version, with the wire protocol and table format versions it speaks\n", f);
     for (const cli_section *s = p->sections; s && s->title; s++) {
-        fprintf(f, ".SH \"%s\"\n", s->title);
+        int lines = !strcmp(s->title, "EXAMPLES") || !strcmp(s->title, "ENVIRONMENT"); /* one per line, as typed */
+        fprintf(f, ".SH \"%s\"\n%s", s->title, lines ? ".nf\n" : "");
         roff(f, s->text);
-        fputc('\n', f);
+        fputs(lines ? "\n.fi\n" : "\n", f);
     }
 }
 
@@ -280,26 +281,41 @@ static void value_options(FILE *f, const cli_program *p)
             fprintf(f, o->short_name ? " --%1$s -%2$c" : " --%1$s", o->name, o->short_name);
 }
 
-/* The first row named name among the tables, to write each option's choices once. */
+static int completes_value(const cli_option *o) { return o->kind == CLI_CHOICE || o->values; }
+
+/* The first row of this name with values to complete, to write each option's case once. */
 static int first_of_name(const cli_program *p, const cli_option *row)
 {
     for (const cli_command *const *c = p->commands; c && *c; c++)
         for (const cli_option *o = (*c)->options; o && o->name; o++)
-            if (!strcmp(o->name, row->name))
+            if (completes_value(o) && !strcmp(o->name, row->name))
                 return o == row;
     return 1;
 }
 
-static void choice_cases(FILE *f, const cli_program *p, const cli_option *rows)
+/* A row's values: its choices, its words, or the names the program lists ("@KIND"); a value
+ * that may also be a file (boards, scenes) completes file names too. */
+static void value_case(FILE *f, const cli_program *p, const cli_option *o)
 {
-    for (const cli_option *o = rows; o && o->name; o++) {
-        if (o->kind != CLI_CHOICE || !first_of_name(p, o))
-            continue;
+    if (o->kind == CLI_CHOICE) {
         fprintf(f, "    --%s) COMPREPLY=($(compgen -W \"", o->name);
         for (const cli_choice *c = o->choices; c->name; c++)
             fprintf(f, "%s%s", c == o->choices ? "" : " ", c->name);
         fputs("\" -- \"$cur\")); return ;;\n", f);
+    } else if (o->values[0] == '@') {
+        int files = o->metavar && strstr(o->metavar, "FILE"); /* NAME|FILE */
+        fprintf(f, "    --%s) COMPREPLY=($(compgen -W \"$(%s --values %s 2>/dev/null)\" -- \"$cur\")%s); return ;;\n",
+                o->name, p->name, o->values + 1, files ? " $(compgen -f -- \"$cur\")" : "");
+    } else {
+        fprintf(f, "    --%s) COMPREPLY=($(compgen -W \"%s\" -- \"$cur\")); return ;;\n", o->name, o->values);
     }
+}
+
+static void choice_cases(FILE *f, const cli_program *p, const cli_option *rows)
+{
+    for (const cli_option *o = rows; o && o->name; o++)
+        if (completes_value(o) && first_of_name(p, o))
+            value_case(f, p, o);
 }
 
 /* The command (its words) from the words typed so far, or the candidates for the next word. */
@@ -364,6 +380,7 @@ void cli_print_bash_completion(FILE *f, const cli_program *p)
           "        if [[ $w == -* ]]; then [[ $w != *=* && $takes == *\" $w \"* ]] && ((i++))\n"
           "        else words+=(\"$w\"); fi\n    done\n", f);
     fputs("    case \"$prev\" in\n", f);
+    choice_cases(f, p, p->globals);
     for (const cli_command *const *c = p->commands; c && *c; c++)
         choice_cases(f, p, (*c)->options);
     if (p->single)

@@ -262,9 +262,11 @@ const cli_command *cli_find_command(const cli_program *p, int argc, char **argv,
     return NULL;
 }
 
-/* --version, --man, --bash-completion: answered before anything else. */
-static int program_request(const cli_program *p, const char *a, int *done)
+/* --version, --man, --bash-completion, --values KIND (for the completion): answered before
+ * anything else. */
+static int program_request(const cli_program *p, int argc, char **argv, int *done)
 {
+    const char *a = argv[1];
     *done = 1;
     if (!strcmp(a, "--version"))
         cli_print_version(stdout, p->name);
@@ -272,6 +274,8 @@ static int program_request(const cli_program *p, const char *a, int *done)
         cli_print_man(stdout, p);
     else if (!strcmp(a, "--bash-completion"))
         cli_print_bash_completion(stdout, p);
+    else if (!strcmp(a, "--values") && argc >= 3 && p->print_values)
+        p->print_values(stdout, argv[2]);
     else
         *done = 0;
     return EX_OK;
@@ -308,7 +312,7 @@ static int run_command(const cli_program *p, const cli_command *cmd, int argc, c
 int cli_main(const cli_program *p, int argc, char **argv, void *globals)
 {
     int done = 0, i = 1, words = 0;
-    if (argc >= 2 && program_request(p, argv[1], &done) == EX_OK && done)
+    if (argc >= 2 && program_request(p, argc, argv, &done) == EX_OK && done)
         return EX_OK;
     /* Global options before the command (they may also follow it). */
     walk w = {.p = p, .tables = {NULL, p->globals}, .dest = {NULL, globals}};
@@ -340,7 +344,7 @@ int cli_main(const cli_program *p, int argc, char **argv, void *globals)
 int cli_main_single(const cli_program *p, int argc, char **argv, void *opts, int *n_args, int *done)
 {
     *done = 0;
-    if (argc >= 2 && program_request(p, argv[1], done) == EX_OK && *done)
+    if (argc >= 2 && program_request(p, argc, argv, done) == EX_OK && *done)
         return EX_OK;
     walk w = {.p = p, .cmd = p->single, .tables = {p->single->options, NULL}, .dest = {opts, NULL}};
     int rc = walk_args(&w, &argc, argv);

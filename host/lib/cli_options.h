@@ -51,6 +51,9 @@ typedef struct cli_option {
     size_t count;              /* CLI_LIST: offsetof its int count */
     size_t given;              /* CLI_GIVEN(type, field): an int set to 1 when the option is given */
     unsigned flags;            /* enum cli_option_flags */
+    const char *values;        /* completion of the value: words ("a b c"), or "@KIND" for the names
+                                * the program lists at completion time (PROG --values KIND), with
+                                * file names too when the metavar says FILE ("NAME|FILE") */
 } cli_option;
 
 #define CLI_GIVEN(type, field) (offsetof(type, field) + 1)
@@ -81,6 +84,8 @@ typedef struct cli_program {
     const cli_command *const *commands; /* NULL-terminated; NULL: the program is `single` */
     const cli_command *single;          /* the one command of a program without commands */
     const cli_section *sections;        /* ends with a NULL title; may be NULL */
+    /* The values of an "@KIND" completion, one per line (boards, scenes, operators); NULL: none */
+    void (*print_values)(FILE *f, const char *kind);
 } cli_program;
 
 /* Parse argv[1..argc-1] by cmd's table into opts (defaults already set). Positional arguments
@@ -89,12 +94,13 @@ typedef struct cli_program {
 int cli_parse(const cli_program *p, const cli_command *cmd, int argc, char **argv, void *opts, int *n_args);
 
 /* The whole command line of a program with commands: global options before the command,
- * --help, --version, --man, --bash-completion, `help [CMD]`, then the command with its global
+ * --help, --version, --man, --bash-completion, --values KIND, `help [CMD]`, then the command with its global
  * options (before or after it) parsed into globals and taken out of its argv.
  * @return the command's exit code, or EX_USAGE */
 int cli_main(const cli_program *p, int argc, char **argv, void *globals);
 
-/* A program without commands: --help, --version, --man, --bash-completion, else cli_parse.
+/* A program without commands: --help, --version, --man, --bash-completion, --values KIND,
+ * else cli_parse.
  * *done is set when the request was answered (help, version): exit with the code returned. */
 int cli_main_single(const cli_program *p, int argc, char **argv, void *opts, int *n_args, int *done);
 

@@ -1,4 +1,5 @@
 #include "tonemap.h"
+#include "label_font.h"
 #include <math.h>
 #include <string.h>
 
@@ -46,14 +47,28 @@ uint8_t wdr_display_to_u8(double t)
     return (uint8_t)lround(255.0 * pow(t, 1.0 / 2.2));
 }
 
-void wdr_side_by_side(const uint8_t *left, const uint8_t *right, int w, int h, uint8_t *rgb)
+/* Label glyph size: readable at a glance, whatever the sensor's width. */
+static int label_scale(int w) { return w >= 320 ? w / 160 : 1; }
+
+static int band_height(int w) { return (WDR_LABEL_GLYPH_H + 4) * label_scale(w); }
+
+int wdr_side_by_side_h(int w, int h) { return h + band_height(w); }
+
+void wdr_side_by_side(const uint8_t *left, const uint8_t *right, int w, int h, const char *left_label,
+                      const char *right_label, uint8_t *rgb)
 {
-    int stride = 2 * w + 4;
-    memset(rgb, 255, (size_t)3 * stride * h);
+    int stride = WDR_SIDE_BY_SIDE_W(w), band = band_height(w), scale = label_scale(w);
+    int total_h = h + band;
+    memset(rgb, 255, (size_t)3 * stride * total_h);
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++)
             for (int c = 0; c < 3; c++) {
-                rgb[3 * ((size_t)y * stride + x) + c] = left[(size_t)y * w + x];
-                rgb[3 * ((size_t)y * stride + w + 4 + x) + c] = right[(size_t)y * w + x];
+                rgb[3 * ((size_t)(y + band) * stride + x) + c] = left[(size_t)y * w + x];
+                rgb[3 * ((size_t)(y + band) * stride + w + 4 + x) + c] = right[(size_t)y * w + x];
             }
+    /* each label centred over its half, in the band */
+    wdr_label_draw(rgb, stride, total_h, (w - wdr_label_width(left_label, scale)) / 2, 2 * scale, scale, 0,
+                   left_label);
+    wdr_label_draw(rgb, stride, total_h, w + 4 + (w - wdr_label_width(right_label, scale)) / 2, 2 * scale, scale,
+                   0, right_label);
 }

@@ -30,7 +30,12 @@ double wdr_code_to_display_curve(const wdr_response_curve *c, const wdr_operator
 /* Display-linear T to an 8-bit sRGB-like grey level (gamma 1/2.2). */
 uint8_t wdr_display_to_u8(double t);
 
-/* Side by side: two w*h grey 8-bit images with a 4-pixel white gap, as RGB (3*(2w+4)*h bytes). */
-void wdr_side_by_side(const uint8_t *left, const uint8_t *right, int w, int h, uint8_t *rgb);
+/* Side by side: two w*h grey 8-bit images with a 4-pixel white gap, under a white band that
+ * names each half (left_label over the left, right_label over the right), as RGB of
+ * WDR_SIDE_BY_SIDE_W(w) x wdr_side_by_side_h(w, h) pixels. */
+#define WDR_SIDE_BY_SIDE_W(w) (2 * (w) + 4)
+int wdr_side_by_side_h(int w, int h);
+void wdr_side_by_side(const uint8_t *left, const uint8_t *right, int w, int h, const char *left_label,
+                      const char *right_label, uint8_t *rgb);
 
 #endif

@@ -309,6 +309,17 @@ int wdr_client_set_illuminant(wdr_client *c, double amps)
     return wdr_client_request(c, WDR_CMD_SIM_SET_ILLUMINANT, p, sizeof p);
 }
 
+int wdr_client_restore_scene(wdr_client *c)
+{
+    if (c->info.proto_minor < 4) {
+        char what[96];
+        snprintf(what, sizeof what, "putting the scene back needs protocol 1.4; the board speaks %u.%u",
+                 c->info.proto_major, c->info.proto_minor);
+        return fail(c, WDR_E_UNSUPPORTED, what);
+    }
+    return wdr_client_request(c, WDR_CMD_SIM_SET_ILLUMINANT, NULL, 0);
+}
+
 /* ---- Uploads ------------------------------------------------------------------------------ */
 
 static void abort_quietly(wdr_client *c)

@@ -121,6 +121,9 @@ int wdr_client_stream(wdr_client *c, uint16_t *codes, wdr_frame_fn on_frame, voi
 
 /* Simulated boards only: light every pixel with amps. */
 int wdr_client_set_illuminant(wdr_client *c, double amps);
+/* Simulated boards only: take the uniform light away, back to the scene (protocol 1.4).
+ * @retval WDR_OK, request errors, WDR_E_UNSUPPORTED from a board of protocol 1.3 or earlier */
+int wdr_client_restore_scene(wdr_client *c);
 
 /* Text of a protocol status. */
 const char *wdr_client_status_text(int status);

@@ -12,10 +12,10 @@
 
 static int board_for_point(const study *s, const study_point *p, study_chip *c, char *err, int errlen)
 {
-    char path[1024];
+    char path[4200];
     wdr_board_path(s->board, path, sizeof path);
     wdr_board_defaults(&c->full);
-    int rc = wdr_board_load(path, &c->full, err, errlen);
+    int rc = wdr_board_load_named(s->board, &c->full, err, errlen);
     if (rc)
         return rc;
     wdr_board *b = &c->b;

@@ -121,10 +121,9 @@ static int read_levels_file(const char *path, double *amps, int *n)
 
 int cal_load_board(const char *name, wdr_board *b)
 {
-    char path[1024], err[512];
-    wdr_board_path(name ? name : WDR_DEFAULT_BOARD, path, sizeof path);
+    char err[512];
     wdr_board_defaults(b);
-    int rc = wdr_board_load(path, b, err, sizeof err);
+    int rc = wdr_board_load_named(name ? name : WDR_DEFAULT_BOARD, b, err, sizeof err);
     return rc ? wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_CONFIG, "%s", err) : EX_OK;
 }
 

@@ -49,9 +49,11 @@ typedef struct cal_opts {
 #define CAL_O(f) offsetof(cal_opts, f)
 extern const cli_choice cal_on_off[], cal_forms[];
 #define CAL_FORM_AUTO (-1) /* --form auto: the smallest form that meets the target (cal_form_auto.h) */
-#define CAL_ROW_BOARD {"board", 0, CLI_STRING, CAL_O(board), "FILE", "board: a name in boards/ or a board.json file"}
+#define CAL_ROW_BOARD {"board", 0, CLI_STRING, CAL_O(board), "NAME|FILE", "board: a name (sim-vga) or a board.json file", \
+                       .values = "@boards"}
 #define CAL_ROW_OPERATOR                                                                                             \
-    {"operator", 0, CLI_STRING, CAL_O(op_name), "NAME", "operator of the simulated chip's LUT (default reinhard)"}
+    {"operator", 0, CLI_STRING, CAL_O(op_name), "NAME", "operator of the simulated chip's LUT (default reinhard)", \
+     .values = "@operators"}
 #define CAL_ROW_ADC                                                                                                  \
     {"adc", 0, CLI_CHOICE, CAL_O(adc), "on|off", "the simulated column ADC quantises (default on)", .choices = cal_on_off}
 #define CAL_ROW_DAC                                                                                                  \

@@ -68,10 +68,18 @@ static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
     return EX_OK; /* frames come raw (wdr_client_capture_raw): no table is changed to measure */
 }
 
-static void close_device(device_src *d)
+/* On success and on failure alike: the scene goes back in front of a simulated board (a failure
+ * to do so fails a calibration that had succeeded; after a failure it is only reported). */
+static int close_device(device_src *d, int rc)
 {
-    wdr_cal_board_close(&d->board);
+    int restored = d->conn.c ? wdr_cal_board_close(&d->board) : WDR_OK;
+    if (restored && rc == EX_OK)
+        rc = wdrctl_conn_fail(&d->conn, restored);
+    else if (restored)
+        fprintf(stderr, "wdrctl: the board stays on uniform light: %s (run 'wdrctl sim illuminant scene')\n",
+                d->conn.c->err);
     wdrctl_disconnect(&d->conn);
+    return rc;
 }
 
 /* ---- verification: the figures of host/cal/cal_metrics.h on fresh frames ---- */
@@ -281,7 +289,8 @@ static int calibrate_with(const cal_opts *o, const wdr_cal_source *src, cal_run 
 
 static const cli_option calibrate_rows[] = {
     {"output", 'o', CLI_STRING, CAL_O(out), "CAL.bin", "where the calibration table goes"},
-    {"model", 0, CLI_STRING, CAL_O(models), "NAME", "spline, simple3, complex4, lsq or polymap (default spline)"},
+    {"model", 0, CLI_STRING, CAL_O(models), "NAME", "spline, simple3, complex4, lsq or polymap (default spline)",
+     .values = "spline simple3 complex4 lsq polymap"},
     {"models", 0, CLI_STRING, CAL_O(models), "NAME", "the same as --model", .flags = CLI_HIDDEN},
     {"currents", 0, CLI_STRING, CAL_O(currents), "A,B,..", "the light levels, in A per pixel, rising"},
     {"levels-file", 0, CLI_STRING, CAL_O(levels_file), "FILE", "the light levels, one per line (# comments)"},
@@ -374,7 +383,7 @@ int cmd_calibrate(int argc, char **argv)
             if (rc == EX_OK && o.upload)
                 rc = upload_table(&d, o.device, &r);
         }
-        close_device(&d);
+        rc = close_device(&d, rc);
         cal_free_run(&r);
         return rc;
     }

@@ -8,6 +8,7 @@
 #include "image_io.h"
 #include "transport.h"
 #include "transport_client.h"
+#include "v4l2_out.h"
 #include "wdr_cal.h"
 #include "wdr_err.h"
 #include "wdr_fw_config.h"
@@ -27,9 +28,9 @@
 /* ---- Options: one table per command, from rows shared by the device commands ------------------ */
 
 typedef struct dev_opts {
-    const char *device, *out;
-    int timeout_ms, retries, wait_ms, count, bits, raw, average, no_verify, negate, json;
-    double seconds;
+    const char *device, *out, *v4l2;
+    int timeout_ms, retries, wait_ms, count, bits, raw, average, no_verify, negate, json, v4l2_format;
+    double seconds, fps;
     int n_args;
     char **args; /* positional arguments after the options */
 } dev_opts;
@@ -51,9 +52,17 @@ static const cli_option capture_rows[] = {
     {"average", 0, CLI_FLAG, O(average), NULL, "one image, the mean of the N frames"},
     {"negate", 0, CLI_FLAG, O(negate), NULL, "brighter light looks brighter (the codes fall with light)"},
     {0}};
+static const cli_choice v4l2_formats[] = {{"grey", WDR_V4L2_GREY}, {"y16", WDR_V4L2_Y16}, {NULL, 0}};
 static const cli_option stream_rows[] = {
     ROW_COUNT("stop after N frames (default: Ctrl-C)"),
     {"seconds", 0, CLI_DOUBLE, O(seconds), "S", "stop after S seconds", .min = 0, .max = 1e9},
+    {"v4l2", 0, CLI_STRING, O(v4l2), "DEV",
+     "feed a V4L2 output device (v4l2loopback: /dev/videoN), or a file or pipe with the raw frames"},
+    {"format", 0, CLI_CHOICE, O(v4l2_format), NULL,
+     "with --v4l2: grey (8-bit display image, default) or y16 (16-bit corrected codes)", .choices = v4l2_formats,
+     .what = "V4L2 format"},
+    {"fps", 0, CLI_DOUBLE, O(fps), "F", "with --v4l2: frames per second announced (default: the board's frame time)",
+     .min = 0.001, .max = 1000},
     {0}};
 #undef O
 
@@ -78,8 +87,9 @@ DEVICE_COMMAND(wdrctl_cmd_capture, "capture", NULL, 0, 0, "capture N frames to P
                cmd_capture);
 DEVICE_COMMAND(wdrctl_cmd_stream, "stream", NULL, 0, 0, "frames back to back, one line each, until Ctrl-C",
                stream_rows, cmd_stream);
-DEVICE_COMMAND(wdrctl_cmd_sim_illuminant, "sim illuminant", "AMPS", 1, 1,
-               "light every pixel of a simulated board uniformly", no_rows, cmd_sim_illuminant);
+DEVICE_COMMAND(wdrctl_cmd_sim_illuminant, "sim illuminant", "AMPS|scene", 1, 1,
+               "light every pixel of a simulated board uniformly, or put its scene back", no_rows,
+               cmd_sim_illuminant);
 
 /* Parse argv (argv[0] is the command name) by cmd's table; the board from the global options. */
 static int parse_opts(int argc, char **argv, const cli_command *cmd, dev_opts *o)
@@ -547,14 +557,17 @@ int cmd_sim_illuminant(int argc, char **argv)
     wdrctl_conn conn;
     double amps = 0;
     int rc = parse_opts(argc, argv, &wdrctl_cmd_sim_illuminant, &o);
-    if (rc != EX_OK || (rc = parse_arg("sim illuminant", "AMPS", o.args[0], 0, HUGE_VAL, &amps)) != EX_OK)
+    int scene = rc == EX_OK && !strcmp(o.args[0], "scene");
+    if (rc == EX_OK && !scene)
+        rc = parse_arg("sim illuminant", "AMPS (or 'scene')", o.args[0], 0, HUGE_VAL, &amps);
+    if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
-    if ((rc = connect_opts(&o, &conn)) != EX_OK)
-        return rc;
-    int r = wdr_client_set_illuminant(conn.c, amps);
+    int r = scene ? wdr_client_restore_scene(conn.c) : wdr_client_set_illuminant(conn.c, amps);
     rc = r == WDR_OK ? EX_OK : wdrctl_conn_fail(&conn, r);
-    if (rc == EX_OK)
-        printf("illuminant set to %g A on every pixel\n", amps);
+    if (rc == EX_OK && scene)
+        printf("the pixels see the scene again\n");
+    else if (rc == EX_OK)
+        printf("illuminant set to %g A on every pixel (wdrctl sim illuminant scene: back to the scene)\n", amps);
     wdrctl_disconnect(&conn);
     return rc;
 }
@@ -580,12 +593,6 @@ static void frame_path(const char *out, uint32_t index, int several, char *path,
         snprintf(path, cap, "%.*s-%04u%s", (int)(dot - out), out, index, dot);
 }
 
-static int has_ext(const char *path, const char *ext)
-{
-    size_t n = strlen(path), e = strlen(ext);
-    return n > e && !strcasecmp(path + n - e, ext);
-}
-
 /* Codes (or averaged codes) to the file: PFM keeps codes as floats; PNG scales the ADC range to
  * 8 or 16 bits unless --raw; --negate flips it so that brighter light looks brighter. */
 static int write_image(const capture_job *j, const char *path, const double *codes)
@@ -596,7 +603,7 @@ static int write_image(const capture_job *j, const char *path, const double *cod
     size_t n = (size_t)w * (size_t)h;
     char err[320];
     int rc;
-    if (has_ext(path, ".pfm")) {
+    if (wdr_path_has_ext(path, ".pfm")) {
         float *f = malloc(n * sizeof *f);
         if (!f)
             return wdrctl_fail(EX_OSERR, "out of memory");
@@ -641,10 +648,11 @@ static int on_captured(void *ctx, const wdr_frame *f)
 
 static int check_output_name(const char *cmd, const char *out)
 {
+    char err[300];
     if (!out)
         return wdrctl_fail(EX_USAGE, "%s: -o FILE (.png or .pfm) is required", cmd);
-    if (!has_ext(out, ".png") && !has_ext(out, ".pfm"))
-        return wdrctl_fail(EX_USAGE, "%s: output '%s' must end in .png or .pfm", cmd, out);
+    if (wdr_output_name_check(out, ".png .pfm", err, sizeof err))
+        return wdrctl_fail(EX_USAGE, "%s: %s", cmd, err);
     return EX_OK;
 }
 
@@ -704,6 +712,8 @@ typedef struct stream_job {
     const dev_opts *o;
     uint32_t frames;
     int64_t t0_ms;
+    wdr_v4l2_out *v4l2; /* --v4l2, or NULL */
+    int err;            /* sysexits of a failed V4L2 write */
 } stream_job;
 
 static int on_streamed(void *ctx, const wdr_frame *f)
@@ -719,6 +729,11 @@ static int on_streamed(void *ctx, const wdr_frame *f)
     }
     printf("frame %u  mean %.2f  min %u  max %u\n", f->end.frame, sum / (double)n, lo, hi);
     fflush(stdout);
+    char err[320];
+    if (s->v4l2 && wdr_v4l2_write(s->v4l2, f->codes, err, sizeof err) != WDR_OK) {
+        s->err = wdrctl_fail(EX_IOERR, "stream: %s: %s", s->o->v4l2, err);
+        return WDR_E_IO;
+    }
     s->frames++;
     double elapsed = (double)(wdr_transport_now_ms() - s->t0_ms) / 1000.0;
     if ((s->o->count > 0 && s->frames >= (uint32_t)s->o->count) || (s->o->seconds > 0 && elapsed >= s->o->seconds))
@@ -726,15 +741,60 @@ static int on_streamed(void *ctx, const wdr_frame *f)
     return WDR_OK;
 }
 
+/* Frames per second as num/den: --fps, else the board's last frame time (STATUS), else its
+ * integration and readout. */
+static void stream_rate(const dev_opts *o, wdrctl_conn *conn, uint32_t *num, uint32_t *den)
+{
+    wdr_status_report st;
+    const wdr_info *in = &conn->c->info;
+    uint64_t ns = 0;
+    if (wdr_client_status(conn->c, &st) == WDR_OK)
+        ns = st.frame_time_ns ? st.frame_time_ns : st.integration_ns + (uint64_t)in->row_time_ns * in->height;
+    if (o->fps > 0)
+        *num = (uint32_t)lround(o->fps * 1000), *den = 1000;
+    else if (ns)
+        *num = 1000000, *den = (uint32_t)((ns + 500) / 1000); /* microseconds per frame */
+    else
+        *num = 10, *den = 1;
+}
+
+static int open_v4l2(const dev_opts *o, wdrctl_conn *conn, wdr_v4l2_out *v)
+{
+    const wdr_info *in = &conn->c->info;
+    char err[512];
+    uint32_t num, den;
+    stream_rate(o, conn, &num, &den);
+    int rc = wdr_v4l2_open(v, o->v4l2, (wdr_v4l2_format)o->v4l2_format, in->width, in->height, in->adc_bits, num,
+                           den, err, sizeof err);
+    if (rc != WDR_OK)
+        return wdrctl_fail(rc == WDR_E_IO ? EX_CANTCREAT : rc == WDR_E_NOMEM ? EX_OSERR : EX_UNAVAILABLE, "stream: %s",
+                           err);
+    if (v->fps_num)
+        fprintf(stderr, "wdrctl: streaming %ux%u %s into %s at %.3g frames/s (%u bytes per line)%s\n", in->width,
+                in->height, wdr_v4l2_format_name(v->format), o->v4l2, (double)v->fps_num / v->fps_den,
+                v->bytesperline, v->is_device ? "" : ": raw frames, not a V4L2 device");
+    else
+        fprintf(stderr, "wdrctl: streaming %ux%u %s into %s (the device sets no frame rate)\n", in->width, in->height,
+                wdr_v4l2_format_name(v->format), o->v4l2);
+    return EX_OK;
+}
+
 int cmd_stream(int argc, char **argv)
 {
     dev_opts o;
     wdrctl_conn conn;
+    wdr_v4l2_out v4l2;
     int rc = parse_opts(argc, argv, &wdrctl_cmd_stream, &o);
+    if (rc == EX_OK && !o.v4l2 && (o.fps > 0 || o.v4l2_format))
+        rc = wdrctl_fail(EX_USAGE, "stream: --format and --fps go with --v4l2 DEV");
     if (rc != EX_OK || (rc = connect_opts(&o, &conn)) != EX_OK)
         return rc;
+    if (o.v4l2 && (rc = open_v4l2(&o, &conn, &v4l2)) != EX_OK) {
+        wdrctl_disconnect(&conn);
+        return rc;
+    }
     uint16_t *codes = malloc((size_t)conn.c->info.width * conn.c->info.height * sizeof *codes);
-    stream_job s = {.o = &o, .t0_ms = wdr_transport_now_ms()};
+    stream_job s = {.o = &o, .t0_ms = wdr_transport_now_ms(), .v4l2 = o.v4l2 ? &v4l2 : NULL};
     struct sigaction sa = {.sa_handler = on_signal}, old_int, old_term;
     sigaction(SIGINT, &sa, &old_int);
     sigaction(SIGTERM, &sa, &old_term);
@@ -743,8 +803,13 @@ int cmd_stream(int argc, char **argv)
     sigaction(SIGINT, &old_int, NULL);
     sigaction(SIGTERM, &old_term, NULL);
     double secs = (double)(wdr_transport_now_ms() - s.t0_ms) / 1000.0;
-    rc = r == WDR_OK ? EX_OK : r == WDR_E_NOMEM ? wdrctl_fail(EX_OSERR, "out of memory") : wdrctl_conn_fail(&conn, r);
+    rc = s.err != EX_OK ? s.err
+         : r == WDR_OK  ? EX_OK
+         : r == WDR_E_NOMEM ? wdrctl_fail(EX_OSERR, "out of memory")
+                           : wdrctl_conn_fail(&conn, r);
     fprintf(stderr, "wdrctl: %u frames in %.2f s (%.1f frames/s)\n", s.frames, secs, secs > 0 ? s.frames / secs : 0.0);
+    if (s.v4l2)
+        wdr_v4l2_close(s.v4l2);
     free(codes);
     wdrctl_disconnect(&conn);
     return rc;

@@ -164,6 +164,10 @@ static int run_condition(report *rp, condition *c)
 
 /* ---- plots (gnuplot) ---- */
 
+#define CONTRAST_FLOOR_PCT 0.01 /* the y axis's floor: smaller errors are drawn on it, marked */
+#define STYLE_BEFORE 8          /* plot.h styles that no model id (firmware/wdr_cal.h) takes */
+#define STYLE_QUANT_FLOOR 9
+
 /* Columns: x, then per condition: before, beyond fraction (%), floor, then per model table and model. */
 static int write_contrast_data(const report *rp, const char *dir, char *path, size_t cap)
 {
@@ -175,11 +179,9 @@ static int write_contrast_data(const report *rp, const char *dir, char *path, si
         fprintf(f, "%g", rp->eval[k]);
         for (int c = 0; c < N_COND; c++) {
             const wdr_eval_point *p = &rp->c[c].m[0].pt[k];
-            fprintf(f, " %g %g %g", fmax(p->before.sd_pct, 1e-4), 100 * p->before.beyond_frac,
-                    fmax(p->floor_pct, 1e-4));
+            fprintf(f, " %g %g %g", p->before.sd_pct, 100 * p->before.beyond_frac, p->floor_pct);
             for (int i = 0; i < rp->n_models; i++)
-                fprintf(f, " %g %g", fmax(rp->c[c].m[i].pt[k].table.sd_pct, 1e-4),
-                        fmax(rp->c[c].m[i].pt[k].model.sd_pct, 1e-4));
+                fprintf(f, " %g %g", rp->c[c].m[i].pt[k].table.sd_pct, rp->c[c].m[i].pt[k].model.sd_pct);
         }
         fputc('\n', f);
     }
@@ -194,16 +196,20 @@ static int condition_panel(const report *rp, int c, const char *data, char *scri
     if (cd->o.noise)
         snprintf(frames, sizeof frames, ", %d frames averaged", cd->o.frames);
     int n = snprintf(script, cap, "set title \"%s%s\" noenhanced\n", cd->spec->label, frames);
-    n += snprintf(script + n, cap - (size_t)n,
-                  "plot '%s' u 1:%d w lp lc rgb 'gray40' t 'before: sd of ln(x_hat/x)', "
-                  "1 w l dt 2 lc rgb 'black' t '1 %% (eye)'",
-                  data, base);
+    n += snprintf(script + n, cap - (size_t)n, "plot 1 w l dt 2 lc rgb 'black' t '1 %% (eye)'");
+    /* every series in its own fixed style (plot.h), the same in every panel; below the axis at the floor */
+    n += wdr_plot_floored_series(script + n, cap - (size_t)n, data, base, STYLE_BEFORE,
+                                 "before: sd of ln(x_hat/x)", CONTRAST_FLOOR_PCT);
     if (cd->o.adc)
-        n += snprintf(script + n, cap - (size_t)n, ", '%s' u 1:%d w l lw 2 dt 3 lc rgb 'red' t 'quantisation floor'",
-                      data, base + 2);
-    for (int i = 0; i < rp->n_models; i++)
-        n += snprintf(script + n, cap - (size_t)n, ", '%s' u 1:%d w lp t '%s (table)'", data, base + 3 + 2 * i,
-                      cal_model_name(rp->models[i]));
+        n += wdr_plot_floored_series(script + n, cap - (size_t)n, data, base + 2, STYLE_QUANT_FLOOR,
+                                     "quantisation floor", CONTRAST_FLOOR_PCT);
+    for (int i = 0; i < rp->n_models; i++) {
+        char title[64];
+        snprintf(title, sizeof title, "%s (table)", cal_model_name(rp->models[i]));
+        n += wdr_plot_floored_series(script + n, cap - (size_t)n, data, base + 3 + 2 * i, rp->models[i], title,
+                                     CONTRAST_FLOOR_PCT);
+    }
+    n += wdr_plot_floor_key(script + n, cap - (size_t)n, CONTRAST_FLOOR_PCT, "%");
     return n + snprintf(script + n, cap - (size_t)n, "\n");
 }
 
@@ -217,8 +223,8 @@ static int plot_contrast(const report *rp, const char *dir)
                  "set terminal pngcairo size 1800,600 noenhanced\nset output '%s/fpn_contrast.png'\nset logscale xy\n"
                  "set multiplot layout 1,3 title 'FPN contrast error before and after correction (%s, %s)'\n"
                  "set xlabel 'photocurrent (A)'\nset ylabel 'contrast error (%%, sd across pixels)'\n"
-                 "set yrange [0.01:1000]\nset grid\nset key top center font ',9'\n",
-                 rp->o.outdir, rp->o.op_name, rp->b.name);
+                 "set yrange [%g:1000]\nset grid\nset key top center font ',9'\n",
+                 rp->o.outdir, rp->o.op_name, rp->b.name, CONTRAST_FLOOR_PCT);
     for (int c = 0; c < N_COND; c++)
         n += condition_panel(rp, c, data, script + n, sizeof script - (size_t)n);
     snprintf(script + n, sizeof script - (size_t)n, "unset multiplot\n");
@@ -266,7 +272,7 @@ static int plot_histograms(report *rp, const char *dir, double *before_sd, doubl
     snprintf(
         script, sizeof script,
         "set terminal pngcairo size 1000,420\nset output '%s/fpn_histograms_1e-11.png'\nset multiplot layout 1,2 "
-        "title \"%s\" noenhanced\nset style fill solid 0.6\nset xlabel '100 ln(x_hat/x) (%%)'\nset ylabel 'pixels'\n"
+        "title \"%s\" noenhanced\nset style fill solid 0.6\nset xlabel '100 ln(x_hat/x) (%%)' noenhanced\nset ylabel 'pixels'\n"
         "bw=%g\nbin(x)=bw*floor(x/bw)\nset title 'before correction, 1e-11 A (sd %.3g %%)'\n"
         "plot '%s' u (bin($1)):(1) smooth freq w boxes notitle\nbw=%g\n"
         "set title 'after (%s, float32 table; sd %.3g %%)'\nplot '%s' u (bin($2)):(1) smooth freq w boxes notitle\n"
@@ -669,7 +675,8 @@ static int report_outputs(report *rp)
 static const cli_option fpn_report_rows[] = {
     {"outdir", 0, CLI_STRING, CAL_O(outdir), "DIR", "where the report goes (fpn.json, plots, test images)",
      .flags = CLI_REQUIRED},
-    {"models", 0, CLI_STRING, CAL_O(models), "A,B,..", "models to compare (default spline,simple3,complex4)"},
+    {"models", 0, CLI_STRING, CAL_O(models), "A,B,..", "models to compare (default spline,simple3,complex4)",
+     .values = "spline simple3 complex4 lsq polymap"},
     CAL_ROW_FRAMES, CAL_ROW_BOARD, CAL_ROW_OPERATOR, CAL_ROW_ADC, CAL_ROW_DAC, CAL_ROW_SAMPLE, CAL_ROW_SEED, CAL_ROW_OUT_SCALE,
     CAL_ROW_JSON, {0}};
 

@@ -9,11 +9,13 @@
 #include "wdr_scene.h"
 #include "wdrctl.h"
 #include <cJSON.h>
+#include <errno.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define RAMP_SAMPLES 8192
@@ -62,11 +64,12 @@ int cmd_operators(int argc, char **argv)
 #define O(f) offsetof(lut_opts, f)
 static const cli_choice timings[] = {{"uniform", WDR_TIMING_UNIFORM}, {"stamped", WDR_TIMING_STAMPED}, {NULL, 0}};
 static const cli_option lut_build_rows[] = {
-    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (see 'wdrctl operators')",
+    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (see 'wdrctl operators')", .values = "@operators",
      .flags = CLI_REQUIRED},
     {"output", 'o', CLI_STRING, O(out), "LUT.bin", "where the table goes", .flags = CLI_REQUIRED},
     {"param", 0, CLI_LIST, O(params), "KEY=VALUE", "an operator parameter", .max = 16, .count = O(n_params)},
-    {"board", 0, CLI_STRING, O(board), "FILE", "a board name in boards/ or a board.json (default: the build's -DWDR_BOARD)"},
+    {"board", 0, CLI_STRING, O(board), "NAME|FILE", "a board name or a board.json (default: the build's -DWDR_BOARD)",
+     .values = "@boards"},
     {"csv", 0, CLI_STRING, O(csv), "FILE", "the table as t_s,code,v_ref_V"},
     {"plot", 0, CLI_STRING, O(plot), "FILE.png", "V_ref(t) and the pixel's response (gnuplot)"},
     {"json", 0, CLI_FLAG, O(json), NULL, "print the operator, scene, sensor and worst error as JSON"},
@@ -81,7 +84,8 @@ static const cli_option lut_build_rows[] = {
     {"l-max", 0, CLI_DOUBLE, O(l_max), "X", "scene maximum luminance, cd/m2"},
     {"l-min", 0, CLI_DOUBLE, O(l_min), "X", "scene minimum luminance, cd/m2"},
     {"scene-image", 0, CLI_STRING, O(scene_image), "HDR", "take L_avg, L_max, L_min from an HDR image"},
-    {"scene", 0, CLI_STRING, O(scene), "FILE", "take the statistics from a scene file, as the sensor sees it"},
+    {"scene", 0, CLI_STRING, O(scene), "NAME|FILE", "take the statistics from a scene (a name or a file), as the sensor sees it",
+     .values = "@scenes"},
     {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A", "with --scene: auto (log-average to the ramp's key) or A per cd/m2"},
     {0}};
 #undef O
@@ -93,7 +97,8 @@ const cli_command wdrctl_cmd_lut_build = {
     lut_build_rows, cmd_lut_build, 0};
 
 static const cli_option lut_plots_rows[] = {
-    {"board", 0, CLI_STRING, offsetof(lut_plots_opts, board), "FILE", "a board name in boards/ or a board.json (default: the build's -DWDR_BOARD)"},
+    {"board", 0, CLI_STRING, offsetof(lut_plots_opts, board), "NAME|FILE",
+     "a board name or a board.json (default: the build's -DWDR_BOARD)", .values = "@boards"},
     {"outdir", 0, CLI_STRING, offsetof(lut_plots_opts, outdir), "DIR", "where vref_all.png and response_all.png go (default .)"},
     {0}};
 
@@ -121,10 +126,9 @@ static int parse_lut_opts(int argc, char **argv, lut_opts *o)
 
 static int load_board(const char *name, wdr_board *b)
 {
-    char path[1024], err[512];
-    wdr_board_path(name ? name : WDR_DEFAULT_BOARD, path, sizeof path);
+    char err[512];
     wdr_board_defaults(b);
-    int rc = wdr_board_load(path, b, err, sizeof err);
+    int rc = wdr_board_load_named(name ? name : WDR_DEFAULT_BOARD, b, err, sizeof err);
     if (rc)
         return wdrctl_fail(rc == WDR_E_IO ? EX_NOINPUT : EX_CONFIG, "%s", err);
     return EX_OK;
@@ -393,6 +397,8 @@ int cmd_lut_build(int argc, char **argv)
     lut_result r = {0};
     int rc = parse_lut_opts(argc, argv, &o);
     if (rc == EX_OK)
+        rc = wdrctl_check_output("lut build", o.plot, ".png");
+    if (rc == EX_OK)
         rc = load_board(o.board, &b);
     if (rc == EX_OK && o.dac_bits && (o.dac_bits < 4 || o.dac_bits > 16))
         rc = wdrctl_fail(EX_USAGE, "option --dac-bits: %d is not 4..16", o.dac_bits);
@@ -437,8 +443,11 @@ static int plot_all_script(const char *outdir, const char *dir, const int *ok)
         for (int id = 0; id < WDR_OP_COUNT; id++) {
             if (!ok[id])
                 continue;
-            n = snprintf(p, left, "'%s/%s.%s' using 1:2 with lines lw 2 title '%s' noenhanced, ", dir,
-                         wdr_operator_info_by_id(id)->name, panels[k], wdr_operator_info_by_id(id)->name);
+            /* one style per operator (plot.h): its own dashes, so curves that coincide
+             * (reinhard and reinhard_white over most of the range) both show */
+            n = snprintf(p, left, "'%s/%s.%s' using 1:2 with lines lw 2 %s title '%s' noenhanced, ", dir,
+                         wdr_operator_info_by_id(id)->name, panels[k], wdr_plot_style(id),
+                         wdr_operator_info_by_id(id)->name);
             p += n, left -= (size_t)n;
         }
         p[-2] = '\n', p[-1] = 0, p--, left++;
@@ -457,6 +466,8 @@ int cmd_lut_plots(int argc, char **argv)
     char dir[512];
     int ok[WDR_OP_COUNT] = {0};
     rc = load_board(po.board, &b);
+    if (rc == EX_OK && mkdir(outdir, 0755) && errno != EEXIST)
+        return wdrctl_fail(EX_CANTCREAT, "%s: cannot create the output directory (%s)", outdir, strerror(errno));
     if (rc == EX_OK && wdr_plot_tmpdir(dir, sizeof dir))
         return wdrctl_fail(EX_CANTCREAT, "cannot create a temporary directory for plot data");
     for (int id = 0; rc == EX_OK && id < WDR_OP_COUNT; id++) {
@@ -469,9 +480,13 @@ int cmd_lut_plots(int argc, char **argv)
             continue;
         if (setup_operator(&o, &b, &op) == EX_OK && build_lut(&o, &b, &op, &r) == EX_OK) {
             ok[id] = write_plot_data(dir, o.op_name, &op, &r, &b) == EX_OK;
-            printf("%-18s entries %6u  t_int %.4g s  worst %.3f LSB%s\n", o.op_name, r.view.h.entry_count,
-                   (double)r.view.h.t_integration_ticks * r.view.h.tick_ps * 1e-12, r.worst_lsb,
-                   r.ramp.repaired ? "  (repaired to be realisable)" : "");
+            printf("%-18s entries %6u  t_int %.4g s  worst %.3f LSB", o.op_name, r.view.h.entry_count,
+                   (double)r.view.h.t_integration_ticks * r.view.h.tick_ps * 1e-12, r.worst_lsb);
+            if (r.ramp.repaired) /* say why the worst is large: the repair, not the table */
+                printf("  (repaired: over %.3g..%.3g A its ramp would have to fall, which a DAC ramp cannot; "
+                       "the response there moved by up to %.3f V, which is this worst)",
+                       r.ramp.bad_i_lo, r.ramp.bad_i_hi, r.ramp.repair_max_dev_v);
+            putchar('\n');
         }
         lut_result_free(&r);
     }

@@ -29,7 +29,7 @@ typedef struct study_opts {
 #define KNOB(name, field, help) {name, 0, CLI_STRING, O(k.field), "LIST", help}
 static const cli_option study_rows[] = {
     {"study", 0, CLI_STRING, O(file), "FILE.json", "a study file: its keys are these long options"},
-    {"board", 0, CLI_STRING, O(board), "FILE", "board: a name in boards/ or a board.json (default sim-vga)"},
+    {"board", 0, CLI_STRING, O(board), "NAME|FILE", "board: a name or a board.json (default sim-vga)", .values = "@boards"},
     {"outdir", 0, CLI_STRING, O(outdir), "DIR", "where study.json and the plots go (default study)"},
     {"json", 0, CLI_FLAG, O(json), NULL, "print the JSON instead of the tables"},
     {"no-plots", 0, CLI_FLAG, O(no_plots), NULL, "no gnuplot plots"},

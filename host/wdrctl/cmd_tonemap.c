@@ -25,11 +25,13 @@ typedef struct tonemap_opts {
 } tonemap_opts;
 
 #define O(f) offsetof(tonemap_opts, f)
+#define AGREE_LEVELS 8 /* display levels a capture may stray from the software image and still agree */
 static const cli_option tonemap_rows[] = {
-    {"scene", 0, CLI_STRING, O(scene), "FILE", "the scene (sim/scenes/*.json)", .flags = CLI_REQUIRED},
+    {"scene", 0, CLI_STRING, O(scene), "NAME|FILE", "the scene: a name (window) or a scene file", .flags = CLI_REQUIRED,
+     .values = "@scenes"},
     {"output", 'o', CLI_STRING, O(out), "SOFT.png", "the scene tone-mapped in software", .flags = CLI_REQUIRED},
-    {"board", 0, CLI_STRING, O(board), "FILE", "board: a name in boards/ or a board.json file"},
-    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (default reinhard)"},
+    {"board", 0, CLI_STRING, O(board), "NAME|FILE", "board: a name (sim-vga) or a board.json file", .values = "@boards"},
+    {"operator", 0, CLI_STRING, O(op_name), "NAME", "tone-mapping operator (default reinhard)", .values = "@operators"},
     {"param", 0, CLI_LIST, O(params), "KEY=VALUE", "an operator parameter", .max = 16, .count = O(n_params)},
     {"scene-image", 0, CLI_STRING, O(scene_image), "HDR", "take L_avg, L_max, L_min from an HDR image"},
     {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A", "scene scale: auto (log-average to the ramp's key) or A per cd/m2"},
@@ -57,10 +59,9 @@ static int parse_tonemap(int argc, char **argv, tonemap_opts *o)
 
 static int load_inputs(const tonemap_opts *o, wdr_board *b, wdr_scene *sc, wdr_operator *op)
 {
-    char path[1024], err[512];
+    char err[512];
     wdr_board_defaults(b);
-    wdr_board_path(o->board ? o->board : WDR_DEFAULT_BOARD, path, sizeof path);
-    int rc = wdr_board_load(path, b, err, sizeof err);
+    int rc = wdr_board_load_named(o->board ? o->board : WDR_DEFAULT_BOARD, b, err, sizeof err);
     if (!rc)
         rc = wdr_scene_load_exposed(o->scene, b, &o->exposure, sc, err, sizeof err);
     if (!rc)
@@ -157,19 +158,36 @@ static int capture_image(const char *path, const wdr_board *b, int w, int h, con
     return EX_OK;
 }
 
+/* How far the capture lies from the software image, in display levels: the figure the side by
+ * side shows by eye (a flat or misplaced capture is far off). */
+static void print_agreement(const uint8_t *soft, const uint8_t *cap, long n)
+{
+    double sum = 0;
+    long within = 0;
+    for (long i = 0; i < n; i++) {
+        int d = abs((int)cap[i] - (int)soft[i]);
+        sum += d;
+        within += d <= AGREE_LEVELS;
+    }
+    printf("capture against software: mean |difference| %.2f of 255 levels, %.1f %% of pixels within %d\n",
+           sum / (double)n, 100.0 * (double)within / (double)n, AGREE_LEVELS);
+}
+
 static int write_outputs(const tonemap_opts *o, int w, int h, const uint8_t *soft, const uint8_t *cap)
 {
     char err[512];
     uint16_t *grey = malloc(sizeof *grey * (size_t)w * h);
-    uint8_t *rgb = cap ? malloc((size_t)3 * (2 * w + 4) * h) : NULL;
+    int side_w = WDR_SIDE_BY_SIDE_W(w), side_h = wdr_side_by_side_h(w, h);
+    uint8_t *rgb = cap ? malloc((size_t)3 * side_w * side_h) : NULL;
     int rc = grey && (!cap || rgb) ? WDR_OK : WDR_E_NOMEM;
     for (long i = 0; !rc && i < (long)w * h; i++)
         grey[i] = soft[i];
     if (!rc)
         rc = wdr_png_write_gray(o->out, grey, w, h, 8, err, sizeof err);
     if (!rc && cap) {
-        wdr_side_by_side(cap, soft, w, h, rgb);
-        rc = wdr_png_write_rgb(o->side, rgb, 2 * w + 4, h, err, sizeof err);
+        wdr_side_by_side(cap, soft, w, h, o->nominal ? "SENSOR (CORRECTED)" : "SENSOR (UNCORRECTED)", "SOFTWARE TONE MAP",
+                         rgb);
+        rc = wdr_png_write_rgb(o->side, rgb, side_w, side_h, err, sizeof err);
     }
     free(grey);
     free(rgb);
@@ -183,6 +201,10 @@ int cmd_tonemap(int argc, char **argv)
     wdr_scene sc = {0};
     static wdr_operator op;
     int rc = parse_tonemap(argc, argv, &o);
+    if (rc == EX_OK)
+        rc = wdrctl_check_output("tonemap", o.out, ".png");
+    if (rc == EX_OK)
+        rc = wdrctl_check_output("tonemap", o.side, ".png");
     if (rc == EX_OK && !o.capture != !o.side)
         rc = wdrctl_fail(EX_USAGE, "tonemap: --capture CAP.pfm and --side-by-side OUT.png go together");
     if (rc == EX_OK)
@@ -201,6 +223,8 @@ int cmd_tonemap(int argc, char **argv)
         if (o.capture)
             rc = capture_image(o.capture, &b, sc.width, sc.height, &op, o.nominal ? &nc : NULL, cap);
     }
+    if (rc == EX_OK && cap)
+        print_agreement(soft, cap, n);
     if (rc == EX_OK)
         rc = write_outputs(&o, sc.width, sc.height, soft, cap);
     if (rc == EX_OK)

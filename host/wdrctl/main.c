@@ -1,6 +1,8 @@
 /* wdrctl: the host tool. The commands' tables (each in its cmd_*.c) and the global options;
  * host/lib/cli_options.c does the parsing, help, man page and completion from them. */
+#include "image_io.h"
 #include "transport_client.h"
+#include "value_lists.h"
 #include "wdrctl.h"
 #include <stdarg.h>
 #include <stdio.h>
@@ -12,7 +14,9 @@ wdrctl_globals wdrctl_global;
 
 #define G(f) offsetof(wdrctl_globals, f)
 static const cli_option global_rows[] = {
-    {"device", 0, CLI_STRING, G(device), "ADDR", "the board: sim:/path.sock, usb or usb:BUS-ADDR (default: $WDR_DEVICE)"},
+    {"device", 0, CLI_STRING, G(device), "ADDR",
+     "the board: sim:/path.sock, usb, usb:BUS-ADDR, serial:/dev/ttyACM0[@BAUD], unix:PATH or tcp:HOST:PORT "
+     "(default: $WDR_DEVICE)", .values = "@devices"},
     {"timeout", 0, CLI_INT, G(timeout_ms), "MS", "reply timeout per request attempt, per connect, and a frame's allowance past the board's frame time (default 2000)", .min = 1,
      .max = 3600000},
     {"retries", 0, CLI_INT, G(retries), "N", "extra attempts after a timeout or a garbled reply (default 2)", .min = 0,
@@ -32,13 +36,24 @@ static const cli_command *const commands[] = {
 
 static const cli_section sections[] = {
     {"ENVIRONMENT", "WDR_DEVICE: the board when --device is not given.\n"
-                    "WDR_BOARDS_DIR: where board names are looked up (BOARDS_DIR/NAME/board.json).\n"
+                    "WDR_BOARDS_DIR: where board names are looked up (BOARDS_DIR/NAME/board.json; default: the installed share/wdrcam/boards).\n"
+                    "WDR_SCENES_DIR: where scene names are looked up (SCENES_DIR/NAME.json; default: the installed share/wdrcam/scenes).\n"
                     "CI: when set (and not 'false'), no progress is drawn on a terminal."},
     {"EXIT STATUS", "0 on success; otherwise a sysexits(3) code: 64 usage (a bad option or value), 65 bad data, "
                     "66 an input that cannot be read, 69 no board, 70 internal error, 71 out of memory, 73 an "
                     "output that cannot be created, 74 I/O error, 75 timeout or busy board, 76 protocol error, "
                     "77 no permission, 78 bad configuration (a board file, no LUT on the board)."},
-    {"SEE ALSO", "wdrsim(1), wdr-simboard(1), wdr-board(1)"},
+    {"EXAMPLES", "wdrctl operators\n"
+                 "wdrctl lut build --operator drago --param bias=0.85 -o drago.lut --csv drago.csv --plot drago.png --json\n"
+                 "wdrctl lut plots --outdir plots/\n"
+                 "wdrctl --device sim:/tmp/board.sock info\n"
+                 "wdrctl lut upload drago.lut\n"
+                 "wdrctl calibrate --lut drago.lut --upload -o cal.bin --json\n"
+                 "wdrctl sim illuminant scene\n"
+                 "wdrctl capture -n 4 -o frame.png --negate\n"
+                 "wdrctl fpn report --outdir fpn/\n"
+                 "wdrctl tonemap --scene window -o soft.png --capture frame.pfm --side-by-side sbs.png"},
+    {"SEE ALSO", "wdrsim(1), wdr-simboard(1), wdr-hdrgen(1), wdr-board(1)"},
     {NULL, NULL}};
 
 const cli_program wdrctl_program = {
@@ -51,6 +66,7 @@ const cli_program wdrctl_program = {
     .globals_size = sizeof(wdrctl_globals),
     .commands = commands,
     .sections = sections,
+    .print_values = wdr_print_values,
 };
 
 int wdrctl_parse(const cli_command *cmd, int argc, char **argv, void *opts, int *n_args)
@@ -66,6 +82,14 @@ void wdrctl_message(const char *fmt, ...)
     vfprintf(stderr, fmt, ap);
     fputc('\n', stderr);
     va_end(ap);
+}
+
+int wdrctl_check_output(const char *cmd, const char *path, const char *exts)
+{
+    char err[300];
+    if (path && wdr_output_name_check(path, exts, err, sizeof err))
+        return wdrctl_fail(EX_USAGE, "%s: %s", cmd, err);
+    return EX_OK;
 }
 
 int wdrctl_show_progress(void)

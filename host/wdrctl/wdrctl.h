@@ -91,6 +91,10 @@ typedef struct wdrctl_conn {
 
 /* Open address (sim:/path.sock, usb, usb:BUS-ADDR; NULL: none given) and check the protocol
  * version. Prints the reason on failure. @return a sysexits code (EX_OK when connected) */
+/* The output-name rule (image_io.h's wdr_output_name_check) for cmd's option: EX_OK, or EX_USAGE
+ * with the message. NULL path: nothing to check. */
+int wdrctl_check_output(const char *cmd, const char *path, const char *exts);
+
 int wdrctl_connect(const char *address, int timeout_ms, int retries, wdrctl_conn *conn);
 /* The same, looking again every 50 ms for wait_ms for a board that is absent (starting). */
 int wdrctl_connect_wait(const char *address, int timeout_ms, int retries, int wait_ms, wdrctl_conn *conn);

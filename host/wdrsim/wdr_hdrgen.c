@@ -2,53 +2,77 @@
  * demo and for trying the scene loader: a synthetic 2:1 panorama (sky, a sun, a dim room with
  * small lamps: about five decades), or any HDR image we read, re-encoded.
  *   wdr-hdrgen -o OUT.exr [--compression dwab] [--size 1024x512] [--from IMAGE] [--half]
+ * Options are one table (host/lib/cli_options.h): --help, --version and the man page follow.
  * Exit codes follow sysexits. */
+#include "cli_options.h"
 #include "exr_read.h"
 #include "hdr_image.h"
+#include "image_io.h"
 #include "wdr_err.h"
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sysexits.h>
 
 typedef struct opts {
-    const char *out, *from, *compression;
+    const char *out, *from, *compression, *size;
     int w, h, half;
 } opts;
 
-static int usage(int code)
-{
-    fprintf(code ? stderr : stdout, "usage: wdr-hdrgen -o OUT.exr [--compression none|rle|zips|zip|piz|pxr24|b44|b44a|"
-                                    "dwaa|dwab] [--size WxH] [--from IMAGE] [--half]\n");
-    return code;
-}
+/* ---- arguments: one row each (host/lib/cli_options.h) ---- */
 
-static int parse(int argc, char **argv, opts *o)
+#define O(f) offsetof(opts, f)
+static const cli_option rows[] = {
+    {"output", 'o', CLI_STRING, O(out), "OUT.exr", "the image to write", .flags = CLI_REQUIRED},
+    {"compression", 0, CLI_STRING, O(compression), "KIND",
+     "none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa or dwab (default dwab)",
+     .values = "none rle zips zip piz pxr24 b44 b44a dwaa dwab"},
+    {"size", 0, CLI_STRING, O(size), "WxH", "the panorama's size, 8..16384 each (default 1024x512)"},
+    {"from", 0, CLI_STRING, O(from), "IMAGE", "re-encode this HDR image (EXR, .hdr, .pfm) instead"},
+    {"half", 0, CLI_FLAG, O(half), NULL, "16-bit half floats (default 32-bit float)"},
+    {0}};
+#undef O
+
+static const cli_command hdrgen_command = {NULL, NULL, 0, 0, "HDR test images as EXR in any compression", NULL,
+                                           rows, NULL, 0};
+
+static const cli_section sections[] = {
+    {"EXAMPLES", "wdr-hdrgen -o pano.exr --compression dwab\n"
+                 "bash .ci/demo pano.exr      # the demo on that panorama (from the source tree)"},
+    {"EXIT STATUS", "0 on success; otherwise a sysexits(3) code: 64 usage (a compression OpenEXR does not know), "
+                    "65 an input that is not an HDR image, 66 an input that cannot be read, 71 out of memory, "
+                    "73 an output that cannot be created."},
+    {"SEE ALSO", "wdrsim(1), wdr-simboard(1), wdrctl(1)"},
+    {NULL, NULL}};
+
+static const cli_program hdrgen_program = {
+    .name = "wdr-hdrgen",
+    .summary = "HDR test images as EXR in any compression (DWAB included)",
+    .description = "wdr-hdrgen writes a synthetic 2:1 panorama (sky, a sun, a dim room with small lamps: about "
+                   "five decades of luminance, in cd/m2), or any HDR image wdrcam reads, re-encoded, as an "
+                   "OpenEXR file in the compression asked for. A scene file can name it as its image.",
+    .single = &hdrgen_command,
+    .sections = sections,
+};
+
+static int parse(int argc, char **argv, opts *o, int *done)
 {
-    *o = (opts){NULL, NULL, "dwab", 1024, 512, 0};
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(a, "--half")) {
-            o->half = 1;
-            continue;
-        }
-        if (!v)
-            return fprintf(stderr, "wdr-hdrgen: %s needs a value\n", a), usage(EX_USAGE);
-        i++;
-        if (!strcmp(a, "-o"))
-            o->out = v;
-        else if (!strcmp(a, "--from"))
-            o->from = v;
-        else if (!strcmp(a, "--compression"))
-            o->compression = v;
-        else if (!strcmp(a, "--size")) {
-            if (sscanf(v, "%dx%d", &o->w, &o->h) != 2 || o->w < 8 || o->h < 8 || o->w > 16384 || o->h > 16384)
-                return fprintf(stderr, "wdr-hdrgen: --size '%s' must be WxH, 8..16384 each\n", v), EX_USAGE;
-        } else
-            return fprintf(stderr, "wdr-hdrgen: unknown option '%s'\n", a), usage(EX_USAGE);
-    }
-    return o->out ? EX_OK : usage(EX_USAGE);
+    int n_args;
+    *o = (opts){NULL, NULL, "dwab", NULL, 1024, 512, 0};
+    char err[300];
+    int rc = cli_main_single(&hdrgen_program, argc, argv, o, &n_args, done);
+    if (rc != EX_OK || *done)
+        return rc;
+    if (wdr_output_name_check(o->out, ".exr", err, sizeof err))
+        return fprintf(stderr, "wdr-hdrgen: %s\n", err), EX_USAGE;
+    if (!o->size)
+        return EX_OK;
+    char tail;
+    if (sscanf(o->size, "%dx%d%c", &o->w, &o->h, &tail) != 2 || o->w < 8 || o->h < 8 || o->w > 16384 || o->h > 16384)
+        return fprintf(stderr, "wdr-hdrgen: option --size: '%s' must be WxH, 8..16384 each\n", o->size), EX_USAGE;
+    return EX_OK;
 }
 
 /* A panorama: sky 3e3 cd/m2 at the zenith falling to 3e2 at the horizon, a sun of 5e4 cd/m2 (half and DWA keep values below 65504)
@@ -79,10 +103,8 @@ int main(int argc, char **argv)
 {
     opts o;
     char err[1024];
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")))
-        return usage(EX_OK);
-    int rc = parse(argc, argv, &o);
-    if (rc)
+    int done = 0, rc = parse(argc, argv, &o, &done);
+    if (rc || done)
         return rc;
     float *lum = NULL;
     if (o.from) {

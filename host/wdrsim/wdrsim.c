@@ -10,6 +10,7 @@
 #include "file_io.h"
 #include "ramp.h"
 #include "wdr_sim.h"
+#include "value_lists.h"
 #include <cJSON.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -48,10 +49,13 @@ static int fail(int code, const char *fmt, ...)
 
 #define O(f) offsetof(options, f)
 static const cli_option rows[] = {
-    {"board", 0, CLI_STRING, O(board), "FILE", "board: a name in boards/ or a board.json file", .flags = CLI_REQUIRED},
-    {"scene", 0, CLI_STRING, O(scene), "FILE", "the scene (sim/scenes/*.json)", .flags = CLI_REQUIRED},
+    {"board", 0, CLI_STRING, O(board), "NAME|FILE", "board: a name (sim-vga) or a board.json file",
+     .flags = CLI_REQUIRED, .values = "@boards"},
+    {"scene", 0, CLI_STRING, O(scene), "NAME|FILE", "the scene: a name (window) or a scene file",
+     .flags = CLI_REQUIRED, .values = "@scenes"},
     {"lut", 0, CLI_STRING, O(lut), "LUT.bin", "the ramp table to play (or --operator)"},
-    {"operator", 0, CLI_STRING, O(operator_name), "NAME", "build the board's LUT of this operator (or --lut)"},
+    {"operator", 0, CLI_STRING, O(operator_name), "NAME", "build the board's LUT of this operator (or --lut)",
+     .values = "@operators"},
     {"output", 'o', CLI_STRING, O(out), "OUT.pfm|OUT.png", "the frame (PFM: codes as floats; PNG: 16-bit)"},
     {"json", 0, CLI_FLAG, O(json), NULL, "print the report (parameters, exposure, floor/ceiling, effects) as JSON"},
     {"report", 0, CLI_STRING, O(json_path), "FILE", "write that report to FILE instead (also spelt --json=FILE)"},
@@ -73,11 +77,13 @@ static const cli_command wdrsim_command = {NULL, NULL, 0, 0,
                                            NULL, rows, NULL, 0};
 
 static const cli_section sections[] = {
-    {"ENVIRONMENT", "WDR_BOARDS_DIR: where board names are looked up (BOARDS_DIR/NAME/board.json)."},
+    {"ENVIRONMENT", "WDR_BOARDS_DIR: where board names are looked up (BOARDS_DIR/NAME/board.json; default: the installed share/wdrcam/boards).\n"
+                    "WDR_SCENES_DIR: where scene names are looked up (SCENES_DIR/NAME.json; default: the installed share/wdrcam/scenes)."},
+    {"EXAMPLES", "wdrsim --board sim-vga --scene window --operator reinhard -o w.png --json"},
     {"EXIT STATUS", "0 on success; otherwise a sysexits(3) code: 64 usage, 65 bad data, 66 an input that cannot be "
                     "read, 70 internal error, 71 out of memory, 73 an output that cannot be created, 78 a bad "
                     "board file."},
-    {"SEE ALSO", "wdrctl(1), wdr-simboard(1)"},
+    {"SEE ALSO", "wdrctl(1), wdr-simboard(1), wdr-hdrgen(1)"},
     {NULL, NULL}};
 
 static const cli_program wdrsim_program = {
@@ -89,6 +95,7 @@ static const cli_program wdrsim_program = {
                    "goes to stdout with --json, or to a file with --json=FILE. No output may be an input.",
     .single = &wdrsim_command,
     .sections = sections,
+    .print_values = wdr_print_values,
 };
 
 static int parse_args(options *o, int argc, char **argv, int *done)
@@ -148,7 +155,7 @@ static int load_board(const char *name, wdr_board *b, char *path, int pathlen)
     char err[512];
     wdr_board_path(name, path, pathlen);
     wdr_board_defaults(b);
-    int rc = wdr_board_load(path, b, err, sizeof err);
+    int rc = wdr_board_load_named(name, b, err, sizeof err);
     return rc ? fail(rc == WDR_E_IO ? EX_NOINPUT : EX_CONFIG, "%s", err) : EX_OK;
 }
 
@@ -217,12 +224,6 @@ static cJSON *report_json(const options *o, const wdr_board *b, const wdr_scene 
     return root;
 }
 
-static int ends_with(const char *s, const char *tail)
-{
-    size_t n = strlen(s), m = strlen(tail);
-    return n >= m && !strcmp(s + n - m, tail);
-}
-
 /* An output must never replace an input (a scene, LUT or board file of the same name). */
 static int same_file(const char *a, const char *b)
 {
@@ -233,6 +234,9 @@ static int same_file(const char *a, const char *b)
 static int check_outputs(const options *o, const char *board_path)
 {
     const char *outs[2] = {o->out, o->json_path}, *ins[3] = {o->scene, o->lut, board_path};
+    char err[300];
+    if (o->out && wdr_output_name_check(o->out, ".pfm .png", err, sizeof err))
+        return fail(EX_USAGE, "%s", err);
     for (int i = 0; i < 2; i++)
         for (int k = 0; k < 3; k++)
             if (same_file(outs[i], ins[k]))
@@ -265,7 +269,7 @@ static int write_image(const char *out, const wdr_board *b, const float *codes)
     char err[512];
     long n = (long)b->width * b->height;
     int rc;
-    if (ends_with(out, ".pfm")) {
+    if (wdr_path_has_ext(out, ".pfm")) {
         rc = wdr_pfm_write(out, codes, b->width, b->height, err, sizeof err);
     } else {
         uint16_t *px = malloc((size_t)n * sizeof *px);

@@ -1,8 +1,8 @@
 #!/bin/sh
 # The README's main job on the default board, as the demo runs it, without plots:
-# board up, LUT upload, calibration of the full VGA array with upload, corrected capture,
-# side-by-side, then the field update (v2 signed, uploaded, a test boot, confirmed). Fails on
-# the first step that fails.
+# board up, LUT upload, calibration of the full VGA array with upload (the board back on its
+# scene afterwards, no restart), corrected capture, side-by-side, then the field update (v2
+# signed, uploaded, a test boot, confirmed). Fails on the first step that fails.
 # usage: main_job.sh WDRCTL WDR_SIMBOARD SOURCE_DIR
 set -eu
 wdrctl=$1 simboard=$2 src=$3
@@ -20,11 +20,6 @@ export WDR_DEVICE="sim:$dir/b.sock"
 "$wdrctl" lut build --operator reinhard -o "$dir/r.lut"
 "$wdrctl" lut upload "$dir/r.lut"
 "$wdrctl" calibrate --lut "$dir/r.lut" --upload -o "$dir/cal.bin" --frames 1 --json >"$dir/cal.json"
-kill $pid; wait $pid 2>/dev/null || true
-"$simboard" --board "$src/boards/sim-vga/board.json" --scene "$src/sim/scenes/window.json" \
-    --socket "$dir/b.sock" --flash "$dir/flash.bin" &
-pid=$!
-"$wdrctl" info --wait 10000 >/dev/null
 "$wdrctl" status | grep -i "cal" 
 "$wdrctl" capture -o "$dir/cap.pfm"
 "$wdrctl" tonemap --board "$src/boards/sim-vga/board.json" --scene "$src/sim/scenes/window.json" \

@@ -240,6 +240,13 @@ int hal_set_illuminant(double amps)
     return WDR_OK;
 }
 
+/* The fake board has no scene: back to its start (0 A, as fb_illuminant reports). */
+int hal_restore_scene(void)
+{
+    fb.amps = 0;
+    return WDR_OK;
+}
+
 /* ---- Flash: the NOR emulator of hal/sim, with its power-cut counter ----------------------------------------------- */
 
 int hal_flash_geometry_get(hal_flash_geometry *g)

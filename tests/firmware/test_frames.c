@@ -220,6 +220,9 @@ static void illuminant_reaches_the_hal(void **state)
     assert_int_equal(th_request(&fw, WDR_CMD_SIM_SET_ILLUMINANT, pl, 4, NULL, 0), WDR_ST_BAD_ARG);
     assert_int_equal(th_request(&fw, WDR_CMD_SIM_SET_ILLUMINANT, pl, 3, NULL, 0), WDR_ST_BAD_LENGTH);
     assert_true(fb_illuminant() == 2.5e-9);
+    /* 1.4: no payload puts the scene back (the fake board's is 0 A) */
+    assert_int_equal(th_request(&fw, WDR_CMD_SIM_SET_ILLUMINANT, NULL, 0, NULL, 0), WDR_ST_OK);
+    assert_true(fb_illuminant() == 0.0);
 }
 
 /* A sensor that fails mid-frame ends the frame early, flagged, and stops the capture. */

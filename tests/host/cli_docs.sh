@@ -1,8 +1,9 @@
 #!/bin/sh
-# usage: cli_docs.sh MAN_PAGE COMPLETION PROGRAM
-# The generated man page is valid troff and names every option `PROGRAM --help` lists; the
+# usage: cli_docs.sh MAN_PAGE COMPLETION PROGRAM README
+# The generated man page is valid troff and names every option `PROGRAM --help` lists; it has
+# EXAMPLES, each of them a command the README shows (so the two cannot drift apart); the
 # generated bash completion loads and completes an option prefix.
-man=$1 completion=$2 prog=$3
+man=$1 completion=$2 prog=$3 readme=$4
 fail() { echo "FAIL: $*"; exit 1; }
 [ -s "$man" ] || fail "$man missing or empty"
 if command -v groff >/dev/null 2>&1; then
@@ -20,5 +21,13 @@ for c in "" $(printf '%s\n' "$cmds" | tr ' ' '+'); do
         grep -q -- "$esc" "$man" || fail "$man lacks $opt (of '$prog $words --help')"
     done
 done
+# EXAMPLES: every line (its command, without a trailing comment) is in the README, whose
+# backslash-continued lines are joined and spaces squeezed first.
+examples=$(sed -n '/^\.SH "EXAMPLES"/,/^\.fi/p' "$man" | sed '1,2d;$d' | sed 's/\\-/-/g; s/  *#.*//; s/ *&$//')
+[ -n "$examples" ] || fail "$man has no EXAMPLES"
+flat=$(sed -e ':a' -e '/\\$/N; s/\\\n[[:space:]]*/ /; ta' "$readme" | tr -s ' ')
+printf '%s\n' "$examples" | while IFS= read -r ex; do
+    printf '%s\n' "$flat" | grep -qF -- "$ex" || fail "$man: example '$ex' is not in $readme"
+done || exit 1
 bash -c ". '$completion' && complete -p $(basename "$prog") >/dev/null" || fail "$completion does not load"
 echo "ok: $man names every option of '$(basename "$prog") --help'; $completion loads"

@@ -32,4 +32,4 @@ PKG_CONFIG_PATH=$pcdir cmake -S "$src" -B "$out/build" -DWDR_HAL_LINUX=ON "$@" >
     { cat "$out/configure.log" >&2; exit 1; }
 grep 'hal/linux' "$out/configure.log" >&2
 cmake --build "$out/build" -j2 --target wdr-board >"$out/build.log" 2>&1 || { tail -30 "$out/build.log" >&2; exit 1; }
-echo "$out/build/hal/wdr-board"
+echo "$out/build/host/wdr-board"

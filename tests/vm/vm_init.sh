@@ -341,6 +341,8 @@ main_path() { # prefix
     run ${p}_capture_pixels capture_check raw
     [ -n "$VM_QUICK" ] && return 0
     run ${p}_stream check_stream
+    # tests/vm/v4l2: wdrctl stream --v4l2 read by v4l2-ctl, once per kernel (the libgpiod 1.x build)
+    [ $p = gpiod1 ] && [ -f /v4l2/checks.sh ] && . /v4l2/checks.sh
     run ${p}_cal_survives_restart upload_survives_restart cal $CAL calibration
     run ${p}_capture_calibrated capture_check calibrated $CAL_GAIN
     run ${p}_sigterm check_sigterm

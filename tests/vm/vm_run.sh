@@ -4,15 +4,17 @@
 # with busybox, the programs, their libraries and wdr-gadget, then one qemu-system-x86_64 boot
 # under TCG that runs vm_init.sh. Writes OUT_DIR/SUITE/results.txt (one "name PASS|FAIL|SKIP
 # detail" line per check, read by vm_check.sh), facts.txt (vm_table.sh), console.log, timing.txt.
-#   vm_run.sh SOURCE_DIR OUT_DIR SUITE WDR_BOARD WDRCTL VM_BOARD_MODEL VM_USBPROBE [CMAKE_ARGS...]
+#   vm_run.sh SOURCE_DIR OUT_DIR SUITE WDR_BOARD WDRCTL VM_BOARD_MODEL VM_USBPROBE V4L2_COMPARE [CMAKE_ARGS...]
 # SUITE: bookworm (Debian 12, 6.1) or trixie (Debian 13, 6.12). CMAKE_ARGS configure the
-# libgpiod 2.x build like this one (build type, flags). WDR_VM_QUICK=1: only the self-tests,
+# libgpiod 2.x build like this one (build type, flags). V4L2_COMPARE:
+# tests/host/v4l2_compare, for the V4L2 checks (tests/vm/v4l2). WDR_VM_QUICK=1: only the self-tests,
 # bring-up and a raw capture per build (for planted-fault runs).
 # Exit 77 (CTest skip) with the reason when the machine lacks something the VM needs.
 set -euo pipefail
 src=$1 top=$2 suite=$3
 bins=("$4" "$5" "$6" "$7")
-shift 7
+v4l2_compare=$8
+shift 8
 out=$top/$suite
 skip() { echo "SKIP: $*" >&2; echo "SKIP $*" >"$out/results.txt"; exit 77; }
 mkdir -p "$out"
@@ -33,11 +35,12 @@ gpiod2=$("$src/tests/vm/gpiod2_build.sh" "$src" "$top/gpiod2" "$@") || rc=$?
 t_gpiod2=$(date +%s.%N)
 
 rc=0
-rc=0
 abi=$("$src/tests/vm/vm_prepare.sh" "$top/cache-$suite" "$src" "$suite") || rc=$?
 [ $rc = 77 ] && skip "kernel or headers unavailable (see above)"
 [ $rc = 0 ] || exit $rc
 kdir=$top/cache-$suite/$abi
+"$src/tests/vm/v4l2/prepare.sh" "$kdir" "$abi" "$top/cache-$suite" "$suite" "$src" ||
+    echo "vm_run: no v4l2loopback for $abi: the V4L2 checks will say SKIP" >&2
 
 # Tables: a LUT built for the board's geometry, a calibration of gain 2 and a per-pixel offset.
 cal_gain=2
@@ -67,6 +70,7 @@ cp "$src/boards/vm-wdrvb/wdr-board.json" "$root/data/vm-wdrvb.json"
 cp "$kdir"/modules/*.ko "$root/lib/modules/"
 cp "$kdir/modules.order" "$root/lib/modules/order"
 cp "$out/test.lut" "$out/test.cal" "$root/data/"
+"$src/tests/vm/v4l2/stage.sh" "$root" "$kdir" "$v4l2_compare"
 # 32 MiB of NOR-like flash in 64 KiB blocks: two LUT and two calibration slots of a VGA board.
 printf 'CAL_GAIN=%s\nMTD_KIB=32768\nMTD_ERASE_KIB=64\nVM_QUICK=%s\n' $cal_gain "${WDR_VM_QUICK:-}" >"$root/data/params.env"
 (cd "$root" && find . | cpio -o -H newc --quiet) >"$out/initramfs.cpio"

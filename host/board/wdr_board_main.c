@@ -43,6 +43,8 @@ static const cli_section sections[] = {
                     "fails (the message names the device, the line or call, and errno); 64 on a bad command "
                     "line; 65 on a bad board description (the message names the file, field and value); 66 "
                     "when it cannot be read; 75 after a REBOOT request (the service restarts it)."},
+    {"EXAMPLES", "wdr-board --config /etc/wdrcam/board.json --check-config   # the board description only\n"
+                 "wdr-board --config /etc/wdrcam/board.json --self-test      # each line and SPI device once"},
     {"SEE ALSO", "wdrctl(1), wdr-simboard(1), wdr-gadget(1), gpioinfo(1)"},
     {NULL, NULL}};
 static const cli_program board_program = {

@@ -13,6 +13,7 @@
 #include "wdr_fw_config.h"
 #include "wdr_err.h"
 #include "wdr_scene.h"
+#include "data_path.h"
 #include "wdr_sim.h"
 #include <errno.h>
 #include <signal.h>
@@ -35,8 +36,10 @@ typedef struct simboard_opts {
 
 #define O(f) offsetof(simboard_opts, f)
 static const cli_option rows[] = {
-    {"board", 0, CLI_STRING, O(board), "FILE", "the board description (board.json)", .flags = CLI_REQUIRED},
-    {"scene", 0, CLI_STRING, O(scene), "FILE", "the scene the sensor looks at (sim/scenes/*.json)", .flags = CLI_REQUIRED},
+    {"board", 0, CLI_STRING, O(board), "NAME|FILE", "the board: a name (sim-vga) or a board.json file",
+     .flags = CLI_REQUIRED, .values = "@boards"},
+    {"scene", 0, CLI_STRING, O(scene), "NAME|FILE", "the scene the sensor looks at: a name (window) or a scene file",
+     .flags = CLI_REQUIRED, .values = "@scenes"},
     {"socket", 0, CLI_STRING, O(socket), "PATH",
      "where wdrctl connects (default wdr-simboard.sock): wdrctl --device sim:PATH"},
     {"flash", 0, CLI_STRING, O(flash), "FILE",
@@ -55,6 +58,9 @@ static const cli_command simboard_command = {
     NULL, NULL, 0, 0, "the controller firmware on the simulated HAL, served on a local socket", NULL, rows, NULL, 0};
 
 static const cli_section sections[] = {
+    {"ENVIRONMENT", "WDR_BOARDS_DIR: where board names are looked up (BOARDS_DIR/NAME/board.json; default: the installed share/wdrcam/boards).\n"
+                    "WDR_SCENES_DIR: where scene names are looked up (SCENES_DIR/NAME.json; default: the installed share/wdrcam/scenes)."},
+    {"EXAMPLES", "wdr-simboard --board sim-vga --scene window --socket /tmp/board.sock &"},
     {"SIGNALS", "SIGTERM or SIGINT ends it cleanly; so does the end of stdin when stdin is a pipe (the parent "
                 "went away), and with --once the first host's disconnect."},
     {"EXIT STATUS", "0 on a clean stop; otherwise a sysexits(3) code: 64 usage, 65 a bad scene or board file, or "
@@ -62,6 +68,8 @@ static const cli_section sections[] = {
                     "cannot be created."},
     {"SEE ALSO", "wdrctl(1), wdrsim(1)"},
     {NULL, NULL}};
+
+static void print_values(FILE *f, const char *kind) { wdr_data_print_names(f, kind); }
 
 static const cli_program simboard_program = {
     .name = "wdr-simboard",
@@ -71,6 +79,7 @@ static const cli_program simboard_program = {
                    "socket for wdrctl --device sim:PATH.",
     .single = &simboard_command,
     .sections = sections,
+    .print_values = print_values,
 };
 
 /* @return a sysexits code; *done when --help or --version was answered */
@@ -118,7 +127,7 @@ static int start_board(const simboard_opts *o, wdr_board *b)
     char err[512];
     wdr_scene scene;
     wdr_board_defaults(b); /* a board file overrides only what it names */
-    int rc = wdr_board_load(o->board, b, err, sizeof err);
+    int rc = wdr_board_load_named(o->board, b, err, sizeof err);
     if (rc == WDR_OK)
         rc = wdr_scene_load_exposed(o->scene, b, &o->exposure, &scene, err, sizeof err);
     if (rc != WDR_OK) {

@@ -1,0 +1,1 @@
+/* Fixture: stands for host/lib/cli_options.h. */
