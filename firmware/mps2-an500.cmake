@@ -31,7 +31,8 @@ target_compile_definitions(wdr_fw_core_mps2 PRIVATE WDR_FW_IMAGE_LOAD_LO=${WDR_M
 target_link_libraries(wdr_fw_core_mps2 PUBLIC wdr_boot wdr_fw)
 
 add_executable(wdr_fw_mps2 main_arm.c ${PROJECT_SOURCE_DIR}/hal/mps2/hal_mps2.c
-  ${PROJECT_SOURCE_DIR}/hal/mps2/hal_mps2_boot.c)
+  ${PROJECT_SOURCE_DIR}/hal/mps2/hal_mps2_boot.c
+  ${PROJECT_SOURCE_DIR}/hal/mps2/psram_nor.c)
 set_target_properties(wdr_fw_mps2 PROPERTIES SUFFIX ".elf")
 target_include_directories(wdr_fw_mps2 PRIVATE ${WDR_MPS2_DIR})
 target_compile_definitions(wdr_fw_mps2 PRIVATE WDR_BOARD_MPS2_AN500)
@@ -47,7 +48,8 @@ foreach(variant wdr_boot_mps2:1 wdr_boot_mps2_hashonly:0)
   string(REPLACE ":" ";" parts ${variant})
   list(GET parts 0 target)
   list(GET parts 1 check_signature)
-  add_executable(${target} boot/boot_main_arm.c ${PROJECT_SOURCE_DIR}/hal/mps2/hal_mps2_boot.c)
+  add_executable(${target} boot/boot_main_arm.c ${PROJECT_SOURCE_DIR}/hal/mps2/hal_mps2_boot.c
+  ${PROJECT_SOURCE_DIR}/hal/mps2/psram_nor.c)
   set_target_properties(${target} PROPERTIES SUFFIX ".elf")
   target_include_directories(${target} PRIVATE ${WDR_MPS2_DIR})
   target_compile_definitions(${target} PRIVATE WDR_BOOT_CHECK_SIGNATURE=${check_signature})

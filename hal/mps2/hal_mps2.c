@@ -5,6 +5,7 @@
  * static state, nothing else. Everything is polled; hal_event_poll turns what the registers show
  * into queued events, as interrupt handlers would. */
 #include "hal.h"
+#include "psram_nor.h"
 #include "hal_event_ring.h"
 #include "hal_mps2_internal.h"
 #include "mps2_board.h"
@@ -224,48 +225,27 @@ void hal_ramp_stop(void)
 
 /* ---- Flash: PSRAM with NOR rules ---------------------------------------------------------------- */
 
-static uint8_t *flash(uint32_t addr)
-{
-    return (uint8_t *)(uintptr_t)(MPS2_FLASH_BASE + addr);
-}
+static const psram_nor table_flash = {MPS2_FLASH_BASE, {MPS2_FLASH_BLOCK, MPS2_FLASH_BLOCKS, MPS2_FLASH_PROG}};
 
 int hal_flash_geometry_get(hal_flash_geometry *g)
 {
-    g->block_size = MPS2_FLASH_BLOCK;
-    g->block_count = MPS2_FLASH_BLOCKS;
-    g->prog_size = MPS2_FLASH_PROG;
+    *g = table_flash.geo;
     return WDR_OK;
 }
 
 int hal_flash_read(uint32_t addr, void *buf, uint32_t len)
 {
-    if (addr > FLASH_BYTES || len > FLASH_BYTES - addr)
-        return WDR_E_INVAL;
-    memcpy(buf, flash(addr), len);
-    return WDR_OK;
+    return psram_nor_read(&table_flash, addr, buf, len);
 }
 
 int hal_flash_erase(uint32_t block)
 {
-    if (block >= MPS2_FLASH_BLOCKS)
-        return WDR_E_INVAL;
-    memset(flash(block * MPS2_FLASH_BLOCK), 0xff, MPS2_FLASH_BLOCK);
-    return WDR_OK;
+    return psram_nor_erase(&table_flash, block);
 }
 
-/* Program only clears bits, and only erased units are programmed (hal.h's strict NOR). */
 int hal_flash_prog(uint32_t addr, const void *buf, uint32_t len)
 {
-    if ((addr | len) % MPS2_FLASH_PROG || addr > FLASH_BYTES || len > FLASH_BYTES - addr)
-        return WDR_E_INVAL;
-    uint8_t *p = flash(addr);
-    for (uint32_t i = 0; i < len; i++)
-        if (p[i] != 0xffu)
-            return WDR_E_IO;
-    const uint8_t *s = buf;
-    for (uint32_t i = 0; i < len; i++)
-        p[i] &= s[i];
-    return WDR_OK;
+    return psram_nor_prog(&table_flash, addr, buf, len);
 }
 
 /* ---- The host link: UART0 in place of the bulk endpoints ------------------------------------------ */

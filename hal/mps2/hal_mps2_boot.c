@@ -3,12 +3,12 @@
  * cause, and the CMSDK watchdog. The bootloader (firmware/boot/boot_main_arm.c) links this file
  * too, for the image flash: one implementation of its NOR rules. Bare metal, no state. */
 #include "hal.h"
+#include "psram_nor.h"
 #include "mps2_board.h"
 #include "wdr_boot.h"
 #include <string.h>
 
 #define REG(addr) (*(volatile uint32_t *)(uintptr_t)(addr))
-#define IMAGE_FLASH_BYTES (MPS2_IMAGE_FLASH_BLOCK * MPS2_IMAGE_FLASH_BLOCKS)
 #define WDOG_LOAD REG(MPS2_WDOG_BASE + 0x0u)
 #define WDOG_CTRL REG(MPS2_WDOG_BASE + 0x8u)
 #define WDOG_INTCLR REG(MPS2_WDOG_BASE + 0xcu)
@@ -16,48 +16,28 @@
 
 /* ---- Image flash: PSRAM with NOR rules ------------------------------------------------------- */
 
-static uint8_t *image_flash(uint32_t addr)
-{
-    return (uint8_t *)(uintptr_t)(MPS2_IMAGE_FLASH_BASE + addr);
-}
+static const psram_nor image_flash_region = {MPS2_IMAGE_FLASH_BASE,
+                                             {MPS2_IMAGE_FLASH_BLOCK, MPS2_IMAGE_FLASH_BLOCKS, MPS2_IMAGE_FLASH_PROG}};
 
 int hal_image_flash_geometry_get(hal_flash_geometry *g)
 {
-    g->block_size = MPS2_IMAGE_FLASH_BLOCK;
-    g->block_count = MPS2_IMAGE_FLASH_BLOCKS;
-    g->prog_size = MPS2_IMAGE_FLASH_PROG;
+    *g = image_flash_region.geo;
     return WDR_OK;
 }
 
 int hal_image_flash_read(uint32_t addr, void *buf, uint32_t len)
 {
-    if (addr > IMAGE_FLASH_BYTES || len > IMAGE_FLASH_BYTES - addr)
-        return WDR_E_INVAL;
-    memcpy(buf, image_flash(addr), len);
-    return WDR_OK;
+    return psram_nor_read(&image_flash_region, addr, buf, len);
 }
 
 int hal_image_flash_erase(uint32_t block)
 {
-    if (block >= MPS2_IMAGE_FLASH_BLOCKS)
-        return WDR_E_INVAL;
-    memset(image_flash(block * MPS2_IMAGE_FLASH_BLOCK), 0xff, MPS2_IMAGE_FLASH_BLOCK);
-    return WDR_OK;
+    return psram_nor_erase(&image_flash_region, block);
 }
 
-/* Program only clears bits, and only erased units are programmed (hal.h's strict NOR). */
 int hal_image_flash_prog(uint32_t addr, const void *buf, uint32_t len)
 {
-    if ((addr | len) % MPS2_IMAGE_FLASH_PROG || addr > IMAGE_FLASH_BYTES || len > IMAGE_FLASH_BYTES - addr)
-        return WDR_E_INVAL;
-    uint8_t *p = image_flash(addr);
-    for (uint32_t i = 0; i < len; i++)
-        if (p[i] != 0xffu)
-            return WDR_E_IO;
-    const uint8_t *s = buf;
-    for (uint32_t i = 0; i < len; i++)
-        p[i] &= s[i];
-    return WDR_OK;
+    return psram_nor_prog(&image_flash_region, addr, buf, len);
 }
 
 /* ---- Boot record, reset ---------------------------------------------------------------------- */

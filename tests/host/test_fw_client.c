@@ -6,6 +6,7 @@
  * new version; info prints the running image. Every child is bounded by a deadline. */
 #include "fw_sign.h"
 #include "scripted_board.h"
+#include "wdrctl_child.h"
 #include "crc32.h"
 #include "wdr_err.h"
 #include <cJSON.h>
@@ -39,14 +40,6 @@ static int case_no;
 
 /* ---- The child ------------------------------------------------------------------------------------ */
 
-static void slurp(const char *path, char *text, size_t cap)
-{
-    FILE *f = fopen(path, "r");
-    size_t got = f ? fread(text, 1, cap - 1, f) : 0;
-    text[got] = 0;
-    if (f)
-        fclose(f);
-}
 
 /* Run wdrctl with args (NULL-terminated); its stdout and stderr land in out_text, err_text. */
 static int run_wdrctl(const char *const *args)
@@ -54,35 +47,14 @@ static int run_wdrctl(const char *const *args)
     char err_path[128], out_path[128];
     snprintf(err_path, sizeof err_path, "%s/stderr.txt", dir);
     snprintf(out_path, sizeof out_path, "%s/stdout.txt", dir);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&fa, 2, err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    char *argv[32] = {(char *)WDRCTL_PATH};
-    int n = 1;
-    while (args[n - 1] && n < 31) {
-        argv[n] = (char *)args[n - 1];
-        n++;
-    }
-    argv[n] = NULL;
-    char *envp[] = {"CI=1", "PATH=/usr/bin:/bin", NULL};
-    pid_t pid;
-    assert_int_equal(posix_spawn(&pid, WDRCTL_PATH, &fa, NULL, argv, envp), 0);
-    posix_spawn_file_actions_destroy(&fa);
-    int status = 0;
-    time_t t0 = time(NULL);
-    while (waitpid(pid, &status, WNOHANG) == 0) {
-        if (time(NULL) - t0 > CHILD_DEADLINE_S) {
-            kill(pid, SIGKILL);
-            waitpid(pid, &status, 0);
-            fail_msg("wdrctl did not finish within %d s", CHILD_DEADLINE_S);
-        }
-        usleep(5000);
-    }
-    slurp(err_path, err_text, sizeof err_text);
-    slurp(out_path, out_text, sizeof out_text);
-    assert_true(WIFEXITED(status));
-    return WEXITSTATUS(status);
+    double wall;
+    int rc = wdr_child_run(WDRCTL_PATH, args, out_path, err_path, CHILD_DEADLINE_S, &wall);
+    if (rc == WDR_CHILD_KILLED)
+        fail_msg("wdrctl did not finish within %d s", CHILD_DEADLINE_S);
+    assert_true(rc >= 0);
+    wdr_child_slurp(err_path, err_text, sizeof err_text);
+    wdr_child_slurp(out_path, out_text, sizeof out_text);
+    return rc;
 }
 
 static void assert_has(const char *text, const char *part)

@@ -6,6 +6,7 @@
  * time is the hang guard (CHILD_DEADLINE_S, and the test's CTest TIMEOUT): a command that never
  * ends fails, one that is slow on a loaded machine does not. */
 #include "scripted_board.h"
+#include "wdrctl_child.h"
 #include "crc32.h"
 #include "wdr_bytes.h"
 #include <setjmp.h>
@@ -36,62 +37,23 @@ static char dir[64];
 static char err_text[4096];
 static int case_no;
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec / 1e9;
-}
-
-static void slurp(const char *path, char *text, size_t cap)
-{
-    FILE *f = fopen(path, "r");
-    size_t got = f ? fread(text, 1, cap - 1, f) : 0;
-    text[got] = 0;
-    if (f)
-        fclose(f);
-}
-
 /* Run wdrctl with args (NULL-terminated); its exit code, stderr in err_text; prints what, the
  * code, the wall time and the message (the figures of the issue's closing note). */
 static int run_wdrctl(const char *what, const char *const *args)
 {
     char err_path[128];
     snprintf(err_path, sizeof err_path, "%s/stderr.txt", dir);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-    posix_spawn_file_actions_addopen(&fa, 2, err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    char *argv[40] = {(char *)WDRCTL_PATH};
-    int n = 1;
-    while (args[n - 1] && n < 39) {
-        argv[n] = (char *)args[n - 1];
-        n++;
-    }
-    argv[n] = NULL;
-    char *envp[] = {"CI=1", "PATH=/usr/bin:/bin", NULL};
-    pid_t pid;
-    double t0 = now_s();
-    assert_int_equal(posix_spawn(&pid, WDRCTL_PATH, &fa, NULL, argv, envp), 0);
-    posix_spawn_file_actions_destroy(&fa);
-    int status = 0;
     const char *guard_env = getenv("WDR_HANG_GUARD_S"); /* shorter, to see a planted hang fail quickly */
-    double guard = guard_env ? atof(guard_env) : CHILD_DEADLINE_S;
-    while (waitpid(pid, &status, WNOHANG) == 0) {
-        if (now_s() - t0 > guard) {
-            kill(pid, SIGKILL);
-            waitpid(pid, &status, 0);
-            fail_msg("%s: wdrctl still running after %.0f s (hang guard)", what, guard);
-        }
-        usleep(5000);
-    }
-    double wall = now_s() - t0;
-    slurp(err_path, err_text, sizeof err_text);
-    assert_true(WIFEXITED(status));
+    double guard = guard_env ? atof(guard_env) : CHILD_DEADLINE_S, wall;
+    int rc = wdr_child_run(WDRCTL_PATH, args, NULL, err_path, guard, &wall);
+    if (rc == WDR_CHILD_KILLED)
+        fail_msg("%s: wdrctl still running after %.0f s (hang guard)", what, guard);
+    assert_true(rc >= 0);
+    wdr_child_slurp(err_path, err_text, sizeof err_text);
     char *nl = strchr(err_text, '\n');
-    printf("%-34s exit %d  %6.0f ms  %.*s\n", what, WEXITSTATUS(status), wall * 1000,
-           nl ? (int)(nl - err_text) : (int)strlen(err_text), err_text);
-    return WEXITSTATUS(status);
+    printf("%-34s exit %d  %6.0f ms  %.*s\n", what, rc, wall * 1000, nl ? (int)(nl - err_text) : (int)strlen(err_text),
+           err_text);
+    return rc;
 }
 
 /* ---- Links: the same script behind a unix socket or a pty ------------------------------------- */

@@ -59,6 +59,9 @@ copy_program() { # file [name in /usr/bin], with every library it loads at its o
     ldd "$1" | grep -o '/[^ ]*' | while read -r lib; do
         mkdir -p "$root$(dirname "$lib")"
         cp -L "$lib" "$root$lib"
+        # A library from the build folder (libgpiod 2.x) also goes where the loader looks by
+        # default: the build folder's path may lie under /tmp, which the VM mounts over.
+        case $lib in /lib/* | /lib64/* | /usr/lib/*) ;; *) mkdir -p "$root/lib/x86_64-linux-gnu" && cp -L "$lib" "$root/lib/x86_64-linux-gnu/" ;; esac
     done
 }
 for b in "${bins[@]}"; do
