@@ -39,11 +39,12 @@ static int chip_open(chip *c, const char *op, int converters)
     c->ss = (wdr_cal_simsrc){c->sim, converters, 500};
     c->src = (wdr_cal_source){W, H, wdr_cal_sim_capture, &c->ss};
     double amps[37];
+    const int middle_row = H / 2; /* the row whose hold time the design assumes */
     for (int k = 0; k < 37; k++)
         amps[k] = 1e-14 * pow(10, k / 6.0);
     if (wdr_cal_acquire(&c->src, amps, 37, 1, 1, NULL, NULL, &c->grid, err, sizeof err) ||
-        wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim), H / 2 * c->b.row_time_s, 1, err,
-                            sizeof err))
+        wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim), middle_row * c->b.row_time_s, 1,
+                            err, sizeof err))
         return fprintf(stderr, "bench_floor: %s: %s\n", op, err), 1;
     return 0;
 }

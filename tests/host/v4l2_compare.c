@@ -49,12 +49,20 @@ int main(int argc, char **argv)
     unsigned *want = malloc(sizeof *want * (size_t)w * h);
     uint8_t *frame = malloc((size_t)bpl * h);
     FILE *f = fopen(argv[5], "rb");
-    if (!want || !frame || !f || !read_png(argv[7], w, h, y16 ? 16 : 8, want))
-        return fprintf(stderr, "v4l2_compare: cannot read %s or %s\n", argv[5], argv[7]), 66;
+    if (!want || !frame || !f || !read_png(argv[7], w, h, y16 ? 16 : 8, want)) {
+        fprintf(stderr, "v4l2_compare: cannot read %s or %s\n", argv[5], argv[7]);
+        free(want), free(frame);
+        if (f)
+            fclose(f);
+        return 66;
+    }
     long compared = 0, differ = 0;
     for (int k = 0; k < n; k++) {
-        if (fread(frame, 1, (size_t)bpl * h, f) != (size_t)bpl * h)
-            return fprintf(stderr, "%s: frame %d of %d is short\n", argv[5], k + 1, n), 65;
+        if (fread(frame, 1, (size_t)bpl * h, f) != (size_t)bpl * h) {
+            fprintf(stderr, "%s: frame %d of %d is short\n", argv[5], k + 1, n);
+            fclose(f), free(want), free(frame);
+            return 65;
+        }
         for (int y = 0; y < h; y++)
             for (int x = 0; x < w; x++) {
                 const uint8_t *p = frame + (size_t)y * bpl + (size_t)x * bpp;
