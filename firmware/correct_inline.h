@@ -160,12 +160,12 @@ static inline void wdr_compact_point(const wdr_cal_view *cal, const float g[WDR_
                                      int32_t y, uint32_t out[WDR_CAL_COMPACT_POINT_WORDS])
 {
     const uint32_t n = WDR_CAL_COMPACT_COEFFS;
-    float f, b[WDR_CAL_COMPACT_COEFFS];
+    float f, b[WDR_CAL_COMPACT_COEFFS] = {0}; /* all set below; zeroed for gcc -fanalyzer, which loses the count */
     const float *p0 = cal->shared + (size_t)wdr_basis_point((float)y, cal->h.in_scale, cal->h.in_offset,
                                                             (float)(cal->h.shared_points - 1u), &f) *
                                         n;
     const float *p1 = p0 + n;
-    uint32_t q[WDR_CAL_COMPACT_COEFFS];
+    uint32_t q[WDR_CAL_COMPACT_COEFFS] = {0};
     for (uint32_t k = 0; k < n; k++) {
         b[k] = p0[k] + f * (p1[k] - p0[k]);
         q[k] = (uint16_t)(int16_t)wdr_round_i32(wdr_clampf(b[k] * g[k], WDR_CAL_COMPACT_P_MAX));
