@@ -14,7 +14,7 @@
 /* Memory: mbedtls_calloc/free through the platform layer; without an arena they return NULL
  * (never newlib's heap); boot_crypto_mbedtls.c installs the static arena. */
 #define MBEDTLS_PLATFORM_C
-#define MBEDTLS_PLATFORM_NO_STD_FUNCTIONS /* else the default allocator is calloc (newlib's heap) */
+#define MBEDTLS_PLATFORM_NO_STD_FUNCTIONS /* else Mbed TLS allocates from newlib's heap */
 #define MBEDTLS_PLATFORM_MEMORY
 #define MBEDTLS_MEMORY_BUFFER_ALLOC_C
 
