@@ -2,15 +2,28 @@
  * L / L_avg, a scene m times brighter wants V_ref'(t) = V_ref(m t) (tests/sim/test_exposure_scaling
  * checks it on the physics), so the firmware keeps the LUT and only changes its tick.
  *
- * Per pixel (integer only): each corrected code's bin in the LUT's exposure table gives
- * ln(I / I_key) at the LUT's own tick; a row's mean, then the frame's mean of row means, is the
- * scene's log-average against the key, shifted by the gain already in force. At the frame's end
- * the gain moves by half of that (damped), the new tick must keep every DAC step at least
- * WDR_FW_DAC_MIN_UPDATE_PS long and the integration at most WDR_FW_MAX_INTEGRATION_NS; a step that
- * would break either is halved until it fits. */
+ * Per pixel (integers, one histogram increment): the frame's corrected codes are counted. At the
+ * frame's end each code's value in the LUT's exposure table (ln(I / I_key) at the LUT's own tick)
+ * is weighted by its count: the scene's log-average against the key, shifted by the gain already
+ * in force, counted as the software tone map counts it (wdr_lum_stats_measure: every pixel's log).
+ * Codes at the floor or the ceiling only say "at most" / "at least" that current: they are
+ * censored, not counted at the limit. Their mean is estimated from their fraction and the density
+ * of the scene just inside the limit, continued past it (uniform in ln I, as over a log gradient):
+ * a fraction p beyond the limit against q within BAND of it spans BAND p / q, so its mean lies half
+ * that beyond. The span is capped at WDR_FW_EXPO_TAIL_MAX_Q8, and below the top by the tone map's
+ * guard (1e-9 of the maximum). Then the gain moves by half of the error (damped), the new tick
+ * must keep every DAC step at least WDR_FW_DAC_MIN_UPDATE_PS long and the integration at most
+ * WDR_FW_MAX_INTEGRATION_NS; a step that would break either is halved until it fits. */
 #include "wdr_fw.h"
+#include <string.h>
 
-#define LOG2E_Q8 369 /* 1/ln 2 in 1/256 */
+#define LOG2E_Q8 369       /* 1/ln 2 in 1/256 */
+#define EXPO_NOISE_CODES 4 /* codes a pixel at a limit may read past it (noise): censored too */
+#define EXPO_BAND_Q8 256   /* the density beyond a limit is the density within 1 ln of it */
+#define EXPO_GUARD_Q8 5305 /* ln(1e9) * 256: the tone map counts nothing below 1e-9 of the maximum */
+#ifndef WDR_FW_EXPO_TAIL_MAX_Q8
+#define WDR_FW_EXPO_TAIL_MAX_Q8 2048 /* a censored tail spans at most 8 ln (3.5 decades) */
+#endif
 
 /* 2^(f/16) for f = 0..16, Q15: the fraction of exp2 between table points is interpolated. */
 static const uint16_t exp2_q15[17] = {32768, 34219, 35734, 37316, 38968, 40693, 42495, 44376, 46341,
@@ -25,12 +38,12 @@ static uint32_t tick_for_gain(uint32_t own_ps, int32_t gain_q8)
     if (x64 >= 40 * 256)
         return 0u; /* overflows 32 bits */
     if (x64 < -48 * 256)
-        return 0u; /* below 1 ps */
+        return 0u;                                /* below 1 ps */
     uint32_t biased = (uint32_t)(x64 + 48 * 256); /* 0..88*256-1: no shift of a negative value */
     int32_t n = (int32_t)(biased >> 8) - 48;      /* floor of x64 / 256: -48..39 */
     uint32_t f = biased & 255u, i = f >> 4, r = f & 15u;
     uint32_t frac = exp2_q15[i] + (((uint32_t)(exp2_q15[i + 1] - exp2_q15[i]) * r) >> 4);
-    uint64_t t = (uint64_t)own_ps * frac; /* Q15 */
+    uint64_t t = (uint64_t)own_ps * frac;        /* Q15 */
     t = n >= 15 ? t << (n - 15) : t >> (15 - n); /* shifts 0..24 and 1..63 */
     return t > UINT32_MAX ? 0u : (uint32_t)t;
 }
@@ -55,6 +68,44 @@ static bool tick_allowed(const wdr_fw *fw, uint32_t tick_ps)
     return tick_ps && step_ps >= WDR_FW_DAC_MIN_UPDATE_PS && t_int_ns <= WDR_FW_MAX_INTEGRATION_NS;
 }
 
+/* ln(I / I_key) * 256 of code: the table's bins interpolated linearly; the last bin is flat. */
+static int32_t table_q8(const wdr_lut_exposure *ex, uint32_t code)
+{
+    uint32_t bin = code >> ex->code_shift, mask = (1u << ex->code_shift) - 1u;
+    if (bin >= ex->bins - 1u)
+        return ex->ln_q8[ex->bins - 1u];
+    int32_t lo = ex->ln_q8[bin], hi = ex->ln_q8[bin + 1u];
+    return lo + (((hi - lo) * (int32_t)(code & mask)) >> ex->code_shift);
+}
+
+/* The histogram's resolution and the censoring limits, from the table: the floor lies in the bin
+ * before the first bin at the table's lowest value (the table reads the floor past it), the
+ * ceiling in the bin after the last at its highest; codes from one bin and EXPO_NOISE_CODES
+ * before (after) that on are censored. */
+static void expo_limits(wdr_fw *fw)
+{
+    const wdr_lut_exposure *ex = &fw->expo;
+    uint32_t span = (uint32_t)ex->bins << ex->code_shift, hs = 0;
+    while ((span >> hs) > WDR_FW_EXPO_HIST)
+        hs++;
+    fw->expo_hist_shift = (uint8_t)hs;
+    uint32_t first_min = 0, last_max = 0;
+    for (uint32_t b = 1; b < ex->bins; b++) {
+        if (ex->ln_q8[b] < ex->ln_q8[first_min])
+            first_min = b;
+        if (ex->ln_q8[b] >= ex->ln_q8[0])
+            last_max = b;
+    }
+    int32_t lo_code = first_min > 0 ? (int32_t)((first_min - 1u) << ex->code_shift) - EXPO_NOISE_CODES : 0;
+    int32_t hi_code = (int32_t)((last_max + 1u) << ex->code_shift) + EXPO_NOISE_CODES;
+    lo_code = lo_code < 0 ? 0 : lo_code;
+    hi_code = hi_code > lo_code ? lo_code : hi_code;
+    fw->expo_lo_index = (uint16_t)((uint32_t)lo_code >> hs);
+    fw->expo_hi_index = (uint16_t)(((uint32_t)hi_code + (1u << hs) - 1u) >> hs);
+    fw->expo_lo_q8 = table_q8(ex, (uint32_t)lo_code);
+    fw->expo_hi_q8 = table_q8(ex, (uint32_t)hi_code);
+}
+
 /* A new LUT: its own tick again, its table (or none), the gain back to 0. */
 void wdr_fw_expo_reset(wdr_fw *fw)
 {
@@ -62,7 +113,9 @@ void wdr_fw_expo_reset(wdr_fw *fw)
     fw->expo_last_q8 = 0;
     fw->expo_tick_ps = fw->lut_slot >= 0 ? fw->lut.h.tick_ps : 0;
     fw->expo_min_step_ticks = fw->lut_slot >= 0 ? min_step_ticks(&fw->lut) : 0;
-    if (!fw->expo_has_table)
+    if (fw->expo_has_table)
+        expo_limits(fw);
+    else
         fw->expo_auto = false;
 }
 
@@ -84,41 +137,138 @@ int wdr_fw_set_exposure(wdr_fw *fw, uint8_t mode)
 
 void wdr_fw_expo_frame_start(wdr_fw *fw)
 {
-    fw->expo_frame_sum = 0;
-    fw->expo_rows = 0;
+    if (fw->expo_auto)
+        memset(fw->expo_hist, 0, sizeof fw->expo_hist);
 }
 
-/* The per-pixel part: integers only. The table holds ln(I / I_key) at each bin's first code;
- * codes between are interpolated (a uniform scene would otherwise see steps of 1/64 of the range). */
+/* The per-pixel part: one histogram increment (codes past the histogram count in its last entry,
+ * which lies past the floor). */
 void wdr_fw_expo_row(wdr_fw *fw, const uint16_t *codes, uint16_t width)
 {
-    if (!fw->expo_auto || width == 0)
+    if (!fw->expo_auto)
         return;
-    int32_t sum = 0;
-    const int16_t *table = fw->expo.ln_q8;
-    uint8_t shift = fw->expo.code_shift;
-    uint32_t mask = (1u << shift) - 1u;
+    uint32_t *hist = fw->expo_hist;
+    const uint32_t shift = fw->expo_hist_shift;
     for (uint16_t x = 0; x < width; x++) {
-        uint32_t bin = (uint32_t)codes[x] >> shift;
-        if (bin >= WDR_LUT_EXPO_BINS - 1u) { /* the last bin, and codes above the table: flat */
-            sum += table[WDR_LUT_EXPO_BINS - 1u];
-            continue;
-        }
-        int32_t lo = table[bin], hi = table[bin + 1u];
-        sum += lo + (((hi - lo) * (int32_t)(codes[x] & mask)) >> shift);
+        uint32_t i = (uint32_t)codes[x] >> shift;
+        hist[i < WDR_FW_EXPO_HIST ? i : WDR_FW_EXPO_HIST - 1u]++;
     }
-    fw->expo_frame_sum += sum / (int32_t)width;
-    fw->expo_rows++;
 }
 
-/* After a whole frame: move the gain by half the measured error, within the limits. */
+/* What a frame's histogram says, by part: the visible codes' sum of ln and count, the censored
+ * counts at each limit, and the counts within EXPO_BAND_Q8 inside each limit. */
+typedef struct expo_tally {
+    int64_t sum_q8;
+    uint32_t seen, below, above, near_lo, near_hi;
+    int32_t top_q8; /* the brightest visible value */
+} expo_tally;
+
+/* ln(I / I_key) * 256 of a code in 1/256 (the table interpolated linearly, flat past its last bin). */
+static int32_t table_q8_fine(const wdr_lut_exposure *ex, int32_t code_q8)
+{
+    uint32_t c = code_q8 > 0 ? (uint32_t)code_q8 : 0u, sh = 8u + ex->code_shift;
+    uint32_t bin = c >> sh;
+    if (bin >= ex->bins - 1u)
+        return ex->ln_q8[ex->bins - 1u];
+    int32_t lo = ex->ln_q8[bin], hi = ex->ln_q8[bin + 1u];
+    return lo + (int32_t)(((int64_t)(hi - lo) * (int32_t)(c & ((1u << sh) - 1u))) >> sh);
+}
+
+/* (tick in force / own tick - 1) * 256: how much longer than calibrated every pixel held its value. */
+static int32_t hold_excess_q8(const wdr_fw *fw)
+{
+    uint32_t own = fw->lut.h.tick_ps ? fw->lut.h.tick_ps : 1u;
+    return (int32_t)(((uint64_t)fw->expo_tick_ps * 256u + own / 2u) / own) - 256;
+}
+
+static void tally(const wdr_fw *fw, expo_tally *t)
+{
+    const wdr_lut_exposure *ex = &fw->expo;
+    const uint32_t hs = fw->expo_hist_shift, half_q8 = hs ? 128u << hs : 0u;
+    const int32_t excess_q8 = hold_excess_q8(fw);
+    const int32_t lo_q8 = (int32_t)fw->expo_lo_index << (8u + hs), hi_q8 = (int32_t)fw->expo_hi_index << (8u + hs);
+    *t = (expo_tally){.top_q8 = fw->expo_hi_q8};
+    for (uint32_t i = 0; i < WDR_FW_EXPO_HIST; i++) {
+        uint32_t n = fw->expo_hist[i];
+        if (n == 0)
+            continue;
+        /* the code the pixel would have read at the calibrated hold: the droop of the extra hold back */
+        int32_t code_q8 = (int32_t)((i << (8u + hs)) + half_q8);
+        code_q8 += (int32_t)(((int64_t)ex->droop_q8[(i << hs) >> ex->code_shift < ex->bins ? (i << hs) >> ex->code_shift
+                                                                                           : ex->bins - 1u] *
+                              excess_q8) >>
+                             8);
+        if (code_q8 >= lo_q8) {
+            t->below += n;
+            continue;
+        }
+        if (code_q8 < hi_q8) {
+            t->above += n;
+            continue;
+        }
+        int32_t x = table_q8_fine(ex, code_q8);
+        t->top_q8 = t->seen ? t->top_q8 : x; /* codes fall as light rises: the first seen is the top */
+        t->sum_q8 += (int64_t)n * x;
+        t->seen += n;
+        t->near_lo += x <= fw->expo_lo_q8 + EXPO_BAND_Q8 ? n : 0u;
+        t->near_hi += x >= fw->expo_hi_q8 - EXPO_BAND_Q8 ? n : 0u;
+    }
+}
+
+/* How far past its limit a censored tail of `count` pixels spans, from the `near` pixels within
+ * EXPO_BAND_Q8 inside it, at most `cap`. */
+static int32_t tail_span(uint32_t count, uint32_t near, int32_t cap)
+{
+    if (count == 0)
+        return 0;
+    int64_t span = near ? (int64_t)EXPO_BAND_Q8 * count / near : cap;
+    return span < cap ? (int32_t)span : cap;
+}
+
+/* ln(L_avg / key) * 256 of the frame at the tick in force. */
+static int32_t frame_log_average(const wdr_fw *fw)
+{
+    expo_tally t;
+    tally(fw, &t);
+    uint32_t all = t.seen + t.below + t.above;
+    if (all == 0)
+        return 0;
+    int32_t hi_span = tail_span(t.above, t.near_hi, WDR_FW_EXPO_TAIL_MAX_Q8);
+    int32_t top = t.above ? fw->expo_hi_q8 + hi_span : t.top_q8;
+    int32_t guard = fw->expo_lo_q8 - (top - EXPO_GUARD_Q8); /* room above the tone map's guard */
+    int32_t lo_cap = guard < WDR_FW_EXPO_TAIL_MAX_Q8 ? (guard > 0 ? guard : 0) : WDR_FW_EXPO_TAIL_MAX_Q8;
+    int32_t lo_span = tail_span(t.below, t.near_lo, lo_cap);
+    int64_t sum = t.sum_q8 + (int64_t)t.below * (fw->expo_lo_q8 - lo_span / 2) +
+                  (int64_t)t.above * (fw->expo_hi_q8 + hi_span / 2);
+    return (int32_t)(sum / (int64_t)all);
+}
+
+/* The gain whose tick is the tick in force (ticks are whole picoseconds: at a tick of 18 ps one
+ * step is 5.5 %, so the tick played is not the gain's own): tick_for_gain falls as the gain rises,
+ * so bisect. */
+static int32_t gain_of_tick(uint32_t own_ps, uint32_t tick_ps, int32_t near_q8)
+{
+    int32_t lo = near_q8 - 1024, hi = near_q8 + 1024; /* a whole-ps tick is within 0.5 % of 1 ps */
+    while (hi - lo > 1) {
+        int32_t mid = lo + (hi - lo) / 2;
+        if (tick_for_gain(own_ps, mid) >= tick_ps)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+/* After a whole frame: the scene's key is the gain of the tick played plus the error measured
+ * under it; the gain moves half way there, within the limits. */
 void wdr_fw_expo_frame_end(wdr_fw *fw, bool complete)
 {
-    if (!fw->expo_auto || !complete || fw->expo_rows == 0)
+    if (!fw->expo_auto || !complete)
         return;
-    int32_t error = fw->expo_frame_sum / (int32_t)fw->expo_rows; /* ln(L_avg / key) at the tick in force */
+    int32_t error = frame_log_average(fw); /* ln(L_avg / key) at the tick in force */
     fw->expo_last_q8 = error;
-    int32_t step = error / (1 << WDR_FW_EXPO_DAMP_SHIFT);
+    int32_t played = gain_of_tick(fw->lut.h.tick_ps, fw->expo_tick_ps, fw->expo_gain_q8);
+    int32_t step = (played + error - fw->expo_gain_q8) / (1 << WDR_FW_EXPO_DAMP_SHIFT);
     /* Near the DAC's rate or the longest integration, halve the step until it fits: the tick
      * then stops within 1/256 of the limit. */
     for (int tries = 0; tries < 9 && step; tries++, step /= 2) {

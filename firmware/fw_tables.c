@@ -30,7 +30,10 @@ static int table_read(const table_ref *t, uint32_t off, void *buf, uint32_t n)
     return wdr_store_read(t->store, t->kind, t->slot, off, buf, n);
 }
 
-static uint16_t adc_max(const wdr_fw *fw) { return (uint16_t)((1u << fw->board.adc_bits) - 1u); }
+static uint16_t adc_max(const wdr_fw *fw)
+{
+    return (uint16_t)((1u << fw->board.adc_bits) - 1u);
+}
 
 /* ---- LUT: loaded whole into the staging RAM buffer ----------------------------------------- */
 
@@ -47,13 +50,13 @@ static int lut_check(wdr_fw *fw, const table_ref *t, uint32_t len)
     err = wdr_lut_parse(p, len, &fw->staged_lut);
     if (err)
         return err;
-    /* LUT 1.1: the exposure block, if any, follows the entries and nothing else does */
+    /* LUT 1.1: the exposure block, if any, follows the entries and nothing else does (its bins
+     * say its length: any other is BAD_TABLE) */
     size_t entries_end = wdr_lut_size(fw->staged_lut.h.entry_count);
-    fw->staged_has_expo = len == entries_end + WDR_LUT_EXPO_SIZE;
+    fw->staged_has_expo = len > entries_end;
     if (fw->staged_has_expo)
-        err = wdr_lut_exposure_parse(p + entries_end, WDR_LUT_EXPO_SIZE, &fw->staged_expo);
-    else if (len != entries_end)
-        return WDR_E_INVAL;
+        err = len - entries_end < 8u ? WDR_E_INVAL
+                                     : wdr_lut_exposure_parse(p + entries_end, len - entries_end, &fw->staged_expo);
     if (err)
         return err;
     return fw->staged_lut.h.dac_bits == fw->board.dac_bits ? WDR_OK : WDR_E_GEOMETRY;
@@ -137,8 +140,7 @@ static int cal_geometry(const wdr_fw *fw, const wdr_cal_view *v)
 
 /* BASIS: the shared block into the staging buffer, checked once; the kernel then trusts it for
  * every row. *crc continues over it (the payload CRC covers the shared block, then the rows). */
-static int cal_shared_load(wdr_fw *fw, const table_ref *t, uint32_t off, wdr_cal_view *v, uint32_t *crc,
-                           int *content)
+static int cal_shared_load(wdr_fw *fw, const table_ref *t, uint32_t off, wdr_cal_view *v, uint32_t *crc, int *content)
 {
     uint32_t bytes = wdr_cal_shared_bytes(&v->h);
     if (!bytes)

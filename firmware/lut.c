@@ -120,19 +120,30 @@ int wdr_lut_parse(const void *buf, size_t len, wdr_lut_view *out)
 
 /* ---- Exposure block (SPEC.md, LUT 1.1) ---- */
 
+static int expo_bins_valid(uint32_t bins)
+{
+    return bins >= WDR_LUT_EXPO_BINS && bins <= WDR_LUT_EXPO_MAX_BINS && (bins & (bins - 1u)) == 0;
+}
+
 int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out)
 {
     const uint8_t *p = buf;
-    if (len < WDR_LUT_EXPO_SIZE)
+    if (len < 8u)
         return WDR_E_TRUNCATED;
-    if (wdr_get_u32(p) != WDR_LUT_EXPO_MAGIC ||
-        wdr_get_u32(p + WDR_LUT_EXPO_SIZE - 4u) != wdr_crc32(0, p, WDR_LUT_EXPO_SIZE - 4u))
+    uint32_t bins = wdr_get_u16(p + 4);
+    if (wdr_get_u32(p) != WDR_LUT_EXPO_MAGIC)
         return WDR_E_CORRUPT;
-    if (wdr_get_u16(p + 4) != WDR_LUT_EXPO_BINS || p[6] > 10u)
+    if (!expo_bins_valid(bins) || p[7] > WDR_LUT_EXPO_DROOP || len != WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, p[7]) ||
+        p[6] > 10u)
         return WDR_E_INVAL;
+    if (wdr_get_u32(p + len - 4u) != wdr_crc32(0, p, len - 4u))
+        return WDR_E_CORRUPT;
     out->code_shift = p[6];
-    for (uint32_t b = 0; b < WDR_LUT_EXPO_BINS; b++) {
+    out->bins = (uint16_t)bins;
+    out->flags = p[7];
+    for (uint32_t b = 0; b < bins; b++) {
         out->ln_q8[b] = (int16_t)wdr_get_u16(p + 8 + 2 * b);
+        out->droop_q8[b] = out->flags ? (int16_t)wdr_get_u16(p + 8 + 2 * (bins + b)) : 0;
         if (out->ln_q8[b] < -WDR_LUT_EXPO_MAX_LN_Q8 || out->ln_q8[b] > WDR_LUT_EXPO_MAX_LN_Q8)
             return WDR_E_INVAL; /* the gain steps by half of it: bounded steps, bounded arithmetic */
     }
@@ -141,11 +152,16 @@ int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out)
 
 void wdr_lut_exposure_encode(const wdr_lut_exposure *in, uint8_t *out)
 {
+    uint8_t flags = in->flags & WDR_LUT_EXPO_DROOP;
+    uint32_t size = WDR_LUT_EXPO_BLOCK_SIZE_FOR(in->bins, flags);
     wdr_put_u32(out, WDR_LUT_EXPO_MAGIC);
-    wdr_put_u16(out + 4, WDR_LUT_EXPO_BINS);
+    wdr_put_u16(out + 4, in->bins);
     out[6] = in->code_shift;
-    out[7] = 0;
-    for (uint32_t b = 0; b < WDR_LUT_EXPO_BINS; b++)
+    out[7] = flags;
+    for (uint32_t b = 0; b < in->bins; b++) {
         wdr_put_u16(out + 8 + 2 * b, (uint16_t)in->ln_q8[b]);
-    wdr_put_u32(out + WDR_LUT_EXPO_SIZE - 4u, wdr_crc32(0, out, WDR_LUT_EXPO_SIZE - 4u));
+        if (flags)
+            wdr_put_u16(out + 8 + 2 * (in->bins + b), (uint16_t)in->droop_q8[b]);
+    }
+    wdr_put_u32(out + size - 4u, wdr_crc32(0, out, size - 4u));
 }

@@ -83,8 +83,11 @@ typedef struct wdr_fw {
     int32_t expo_last_q8;         /* last frame's measured ln(L_avg / key) * 256, at the tick then in force */
     uint32_t expo_tick_ps;        /* tick the next frame plays */
     uint32_t expo_min_step_ticks; /* shortest DAC step of the active LUT, in its ticks */
-    int32_t expo_frame_sum;       /* sum of row means of the frame being read */
-    uint16_t expo_rows;
+    uint32_t expo_hist[WDR_FW_EXPO_HIST]; /* the frame's corrected codes, code >> expo_hist_shift */
+    uint8_t expo_hist_shift;      /* so that the table's codes fit the histogram */
+    uint16_t expo_lo_index;       /* histogram entries from here up: at or below the floor */
+    uint16_t expo_hi_index;       /* entries below here: at or above the ceiling */
+    int32_t expo_lo_q8, expo_hi_q8; /* ln(I / I_key) * 256 at those two limits */
 
     /* Firmware images (fw_update.c): the image flash, the upload into the slot not running,
      * and what the bootloader passed to this boot */

@@ -41,6 +41,9 @@
 #ifndef WDR_FW_MAX_INTEGRATION_NS
 #define WDR_FW_MAX_INTEGRATION_NS 200000000u /* auto exposure: the longest integration the board allows */
 #endif
+#ifndef WDR_FW_EXPO_HIST
+#define WDR_FW_EXPO_HIST 4096u       /* auto exposure: entries of the frame's code histogram (every 12-bit code) */
+#endif
 #ifndef WDR_FW_EXPO_DAMP_SHIFT
 #define WDR_FW_EXPO_DAMP_SHIFT 1     /* auto exposure corrects 1/2^shift of the measured error per frame */
 #endif
@@ -54,6 +57,8 @@
 #define WDR_FW_RESET_NS 2000u        /* reset pulse: settles N1 through M1 */
 #endif
 
+/* A LUT with a 1024-bin exposure block (2060 bytes) fits up to 7935 entries (a 12-bit ramp has at
+ * most 4096): the slot layout, sized from this, stays. */
 #define WDR_FW_LUT_MAX_BYTES (WDR_LUT_HEADER_SIZE + WDR_FW_LUT_MAX_ENTRIES * WDR_LUT_ENTRY_SIZE)
 #define WDR_FW_CAL_ROW_MAX_BYTES (WDR_FW_MAX_CAL_COEFFS * 4u * WDR_FW_MAX_WIDTH + ((WDR_FW_MAX_WIDTH + 3u) & ~3u))
 #define WDR_FW_RESPONSE_MAX 128u     /* largest response kept for retried requests */

@@ -78,26 +78,39 @@ void wdr_lut_encode(wdr_lut_header *h, const uint32_t *t_ticks, const uint16_t *
  * What a corrected output code says about the light: for bin b (codes b << code_shift up to the
  * next bin), ln(I / I_key) * 256 of the current whose nominal-pixel code is b << code_shift
  * (codes between two bins interpolate linearly; the last bin and above are flat),
- * with the ramp at its own tick; I_key is the log-average current the ramp was built for. The
- * firmware averages it over a frame (the log-average of the scene against the key) and retimes
- * the next frame's ramp: a scene m times brighter wants the tick divided by m. */
+ * with the ramp at its own tick; I_key is the log-average current the ramp was built for; codes
+ * past the sensor's floor or ceiling read its ends. The firmware histograms a frame's codes and
+ * takes the log-average of the scene against the key from it (codes at an end are censored: "at
+ * most" / "at least" that current) and retimes the next frame's ramp: a scene m times brighter
+ * wants the tick divided by m. The first blocks had 64 bins; the host now writes 1024 (4 codes
+ * each at 12 bits: 64 put the bottom decade of Reinhard in one bin). */
 #define WDR_LUT_EXPO_MAGIC 0x58454c57u /* "WLEX" */
-#define WDR_LUT_EXPO_BINS 64u
-#define WDR_LUT_EXPO_SIZE (8u + 2u * WDR_LUT_EXPO_BINS + 4u)
+#define WDR_LUT_EXPO_BINS 64u          /* the fewest bins (the first 1.1 blocks) */
+#define WDR_LUT_EXPO_MAX_BINS 1024u    /* the most: a power of two from 64 to this */
+#define WDR_LUT_EXPO_DROOP 1u /* flags bit 0: a droop array follows ln_q8 */
+#define WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, flags) (8u + 2u * (uint32_t)(bins) * (1u + ((flags)&1u)) + 4u)
+#define WDR_LUT_EXPO_BLOCK_SIZE(bins) WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, 0u)
+#define WDR_LUT_EXPO_SIZE WDR_LUT_EXPO_BLOCK_SIZE(WDR_LUT_EXPO_BINS) /* a 64-bin block */
 #define WDR_LUT_EXPO_MAX_LN_Q8 8192 /* |ln_q8| at most 32 ln (e^32 = 8e13, past any sensor's range) */
 
 typedef struct wdr_lut_exposure {
-    uint8_t code_shift;                   /* bin = code >> code_shift, below WDR_LUT_EXPO_BINS */
-    int16_t ln_q8[WDR_LUT_EXPO_BINS];     /* ln(I / I_key) in 1/256 */
+    uint8_t code_shift;                   /* bin = code >> code_shift, below bins */
+    uint16_t bins;                        /* 64, 128, ..., WDR_LUT_EXPO_MAX_BINS */
+    uint8_t flags;                        /* WDR_LUT_EXPO_DROOP */
+    int16_t ln_q8[WDR_LUT_EXPO_MAX_BINS]; /* ln(I / I_key) in 1/256 */
+    /* With WDR_LUT_EXPO_DROOP: codes (1/256) the hold droop lowers bin b's code by per unit of
+     * (tick / own tick - 1): a tick m times the own holds every crossed pixel m times longer */
+    int16_t droop_q8[WDR_LUT_EXPO_MAX_BINS];
 } wdr_lut_exposure;
 
-/* Check and read the exposure block at buf (the bytes after a LUT's entries).
- * @retval WDR_OK  @retval WDR_E_TRUNCATED len < WDR_LUT_EXPO_SIZE  @retval WDR_E_CORRUPT magic or CRC
- * @retval WDR_E_INVAL bins other than WDR_LUT_EXPO_BINS, code_shift above 10, or an ln_q8 outside
- *                     +-WDR_LUT_EXPO_MAX_LN_Q8 */
+/* Check and read the exposure block at buf (the bytes after a LUT's entries, exactly len of them).
+ * @retval WDR_OK  @retval WDR_E_TRUNCATED len < 8  @retval WDR_E_CORRUPT magic or CRC
+ * @retval WDR_E_INVAL bins not a power of two in 64..WDR_LUT_EXPO_MAX_BINS, flags other than 0 or
+ *                     WDR_LUT_EXPO_DROOP, len other than WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, flags),
+ *                     code_shift above 10, or an ln_q8 outside +-WDR_LUT_EXPO_MAX_LN_Q8 */
 int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out);
 
-/* Write the block (WDR_LUT_EXPO_SIZE bytes, CRC computed here). */
+/* Write the block (WDR_LUT_EXPO_BLOCK_SIZE_FOR(in->bins, in->flags) bytes, CRC computed here). */
 void wdr_lut_exposure_encode(const wdr_lut_exposure *in, uint8_t *out);
 
 #endif

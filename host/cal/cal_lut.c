@@ -79,7 +79,7 @@ int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double
     uint32_t *t = malloc(sizeof(uint32_t) * (n + extra));
     uint16_t *c = malloc(sizeof(uint16_t) * (n + extra));
     /* LUT 1.1: an exposure block travels with the ramp (the margin only adds codes past the floor) */
-    size_t expo = in_len == wdr_lut_size(n) + WDR_LUT_EXPO_SIZE ? WDR_LUT_EXPO_SIZE : 0;
+    size_t expo = in_len > wdr_lut_size(n) ? in_len - wdr_lut_size(n) : 0; /* its own length (bins) */
     *out_len = wdr_lut_size(n + extra) + expo;
     *out = malloc(*out_len);
     if (!t || !c || !*out) {

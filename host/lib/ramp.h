@@ -68,7 +68,7 @@ double wdr_ramp_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operato
  * built for (L_avg / lum_per_A). */
 void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out);
 
-/* Append that table to the LUT in *bytes (realloc'd; *len grows by WDR_LUT_EXPO_SIZE).
+/* Append that table to the LUT in *bytes (realloc'd; *len grows by WDR_LUT_EXPO_BLOCK_SIZE(bins), 1024 bins).
  * @retval WDR_OK, the wdr_lut_parse errors, WDR_E_NOMEM */
 int wdr_ramp_lut_append_exposure(uint8_t **bytes, size_t *len, const wdr_board *b, double key_amp);
 

@@ -69,8 +69,8 @@ static int spawn_board(e2e_board *e, const char *board_path)
     posix_spawn_file_actions_adddup2(&fa, p[0], 0);
     posix_spawn_file_actions_addclose(&fa, p[1]);
     posix_spawn_file_actions_addopen(&fa, 2, log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    char *argv[12] = {WDR_SIMBOARD_PATH, "--board", (char *)board_path, "--scene", e->scene_path,
-                      "--socket", e->socket_path};
+    char *argv[12] = {WDR_SIMBOARD_PATH, "--board",  (char *)board_path, "--scene",
+                      e->scene_path,     "--socket", e->socket_path};
     int n = 7;
     if (e->flash_path)
         argv[n++] = "--flash", argv[n++] = (char *)e->flash_path;
@@ -112,14 +112,42 @@ static int connect_when_ready(e2e_board *e)
     return -1;
 }
 
-int e2e_start(e2e_board *e, const char *board_name) { return e2e_start_with_flash(e, board_name, NULL); }
+int e2e_start(e2e_board *e, const char *board_name)
+{
+    return e2e_start_with_flash(e, board_name, NULL);
+}
 
 int e2e_start_with_flash(e2e_board *e, const char *board_name, const char *flash_path)
 {
     return e2e_start_with_firmware(e, board_name, flash_path, NULL);
 }
 
+static int start_board(e2e_board *e, const char *board_name, const char *flash_path, const char *firmware_path,
+                       const char *scene_json);
+
 int e2e_start_with_firmware(e2e_board *e, const char *board_name, const char *flash_path, const char *firmware_path)
+{
+    return start_board(e, board_name, flash_path, firmware_path, NULL);
+}
+
+int e2e_start_scene(e2e_board *e, const char *board_name, const char *scene_json, const char *flash_path)
+{
+    return start_board(e, board_name, flash_path, NULL, scene_json);
+}
+
+static int copy_scene(const char *from, const char *to)
+{
+    char *text = wdr_read_text(from);
+    FILE *f = text ? fopen(to, "w") : NULL;
+    int ok = f && fputs(text, f) >= 0;
+    if (f)
+        ok = !fclose(f) && ok;
+    free(text);
+    return ok ? 0 : -1;
+}
+
+static int start_board(e2e_board *e, const char *board_name, const char *flash_path, const char *firmware_path,
+                       const char *scene_json)
 {
     char board_path[512], err[512];
     memset(e, 0, sizeof *e);
@@ -139,7 +167,8 @@ int e2e_start_with_firmware(e2e_board *e, const char *board_name, const char *fl
         return -1;
     }
     e->c = calloc(1, sizeof *e->c);
-    if (!e->c || write_quiet_scene(e->scene_path) != 0 || spawn_board(e, board_path) != 0)
+    int scene = scene_json ? copy_scene(scene_json, e->scene_path) : write_quiet_scene(e->scene_path);
+    if (!e->c || scene != 0 || spawn_board(e, board_path) != 0)
         return -1;
     e->c->timeout_ms = 5000;
     e->c->retries = WDR_CLIENT_RETRIES;
@@ -272,7 +301,7 @@ typedef struct soft_model {
     wdr_ideal_pixel px;
     wdr_lut_view view;
     const float *amps;
-    const long *order;  /* pixel indices sorted by photocurrent */
+    const long *order; /* pixel indices sorted by photocurrent */
     uint16_t *codes;
 } soft_model;
 
@@ -307,8 +336,7 @@ static int by_current(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-int e2e_software_frame(const wdr_board *b, const char *scene_path, const uint8_t *lut, size_t lut_len,
-                       uint16_t *codes)
+int e2e_software_frame(const wdr_board *b, const char *scene_path, const uint8_t *lut, size_t lut_len, uint16_t *codes)
 {
     wdr_scene sc;
     char err[512];

@@ -34,6 +34,10 @@ int e2e_start_with_flash(e2e_board *e, const char *board_name, const char *flash
 /* The same, flashing firmware_path into slot A of the blank image flash (--firmware). */
 int e2e_start_with_firmware(e2e_board *e, const char *board_name, const char *flash_path, const char *firmware_path);
 
+/* The same, with the scene file scene_json (its bytes copied into the rig's folder) instead of the
+ * quiet default, and the flash kept in flash_path if not NULL. */
+int e2e_start_scene(e2e_board *e, const char *board_name, const char *scene_json, const char *flash_path);
+
 /* Disconnect, end the child (EOF on its stdin, then SIGTERM after a grace period), remove the folder. */
 void e2e_stop(e2e_board *e);
 

@@ -36,7 +36,7 @@ static size_t crafted_lut(int16_t ln_q8)
         codes[i] = (uint16_t)(i * 8u);
     }
     wdr_lut_encode(&h, t, codes, lut);
-    wdr_lut_exposure ex = {.code_shift = FB_ADC_BITS - 6};
+    wdr_lut_exposure ex = {.code_shift = FB_ADC_BITS - 6, .bins = WDR_LUT_EXPO_BINS};
     for (uint32_t b = 0; b < WDR_LUT_EXPO_BINS; b++)
         ex.ln_q8[b] = ln_q8;
     size_t end = wdr_lut_size(16);

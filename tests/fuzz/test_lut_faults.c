@@ -62,7 +62,7 @@ static void extension_keeps_the_exposure_block(void **state)
     (void)state;
     static uint8_t in[1024];
     size_t n = steep_lut(in);
-    wdr_lut_exposure ex = {.code_shift = 6};
+    wdr_lut_exposure ex = {.code_shift = 6, .bins = WDR_LUT_EXPO_BINS};
     for (unsigned b = 0; b < WDR_LUT_EXPO_BINS; b++)
         ex.ln_q8[b] = (int16_t)(1000 - 30 * (int)b);
     wdr_lut_exposure_encode(&ex, in + n);
@@ -79,7 +79,8 @@ static void extension_keeps_the_exposure_block(void **state)
     wdr_lut_exposure back;
     assert_int_equal(wdr_lut_exposure_parse(out + wdr_lut_size(v.h.entry_count), WDR_LUT_EXPO_SIZE, &back), WDR_OK);
     assert_int_equal(back.code_shift, ex.code_shift);
-    assert_memory_equal(back.ln_q8, ex.ln_q8, sizeof ex.ln_q8);
+    assert_int_equal(back.bins, ex.bins);
+    assert_memory_equal(back.ln_q8, ex.ln_q8, WDR_LUT_EXPO_BINS * sizeof ex.ln_q8[0]);
     free(out);
 }
 
