@@ -1,10 +1,16 @@
-/* Bad pixels from the calibration frames: dead, stuck, hot, saturated; array medians. */
+/* Bad pixels from the calibration frames, one kind each (saturated, stuck, dead, hot); array medians. */
 #include "cal_fit_internal.h"
 #include "wdr_err.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Robust sigmas of the dark reference (the spread of reset levels): the band where a pixel with
+ * no current reads (healthy dark outputs on a 320x240 chip: -4.6..+4.1 sigma), and the least a
+ * hot pixel's dark output sits towards bright. */
+#define DARK_BAND_SIGMAS 6.0
+#define HOT_SIGMAS 8.0
 
 /* k-th smallest of v[0..n-1] by quickselect (v is reordered): medians of whole frames are
  * the bulk of a closed-form calibration's time, and a full sort is not needed. */
@@ -62,40 +68,66 @@ static double mad_sigma(const float *v, long n, double med, float *scratch)
     return 1.4826 * wdr_cal_median_of(dev, n, scratch);
 }
 
-static void flag_range(const wdr_cal_levels *lv, const wdr_cal_config *cfg, double med_swing, uint8_t *flags)
+/* What the array says a pixel's frames are judged against: the median swing from the dimmest
+ * to the brightest level, and where the dark frame lies (its median and robust spread: the spread
+ * of reset levels, since a dark pixel reads close to its own reset level). */
+typedef struct array_ref {
+    double swing;            /* median code at the dimmest level minus at the brightest */
+    double dark, dark_sigma; /* median and 1.4826 MAD of the dark reference */
+    double hot_limit;        /* how far towards bright a dark output may sit */
+} array_ref;
+
+/* The dark reference: the dark frame, or without one the dimmest level (close to it: the dark
+ * end of the response is nearly flat). */
+static const float *dark_reference(const wdr_cal_levels *lv)
 {
-    long np = (long)lv->width * lv->height;
-    for (long i = 0; i < np; i++) {
-        double lo = INFINITY, hi = -INFINITY;
-        for (int k = 0; k < lv->n; k++) {
-            double y = lv->frames[(long)k * np + i];
-            if (!isfinite(y)) {
-                flags[i] |= WDR_PIX_DEAD;
-                break;
-            }
-            lo = fmin(lo, y);
-            hi = fmax(hi, y);
-            if (y <= 0.5 || y >= cfg->raw_max - 0.5)
-                flags[i] |= WDR_PIX_SATURATED;
-        }
-        double swing = lv->frames[i] - lv->frames[(long)(lv->n - 1) * np + i];
-        if (hi - lo <= cfg->stuck_frac * med_swing)
-            flags[i] |= WDR_PIX_STUCK;
-        else if (!(swing >= cfg->dead_frac * med_swing))
-            flags[i] |= WDR_PIX_DEAD;
-    }
+    return lv->dark ? lv->dark : lv->frames;
 }
 
-static void flag_hot(const wdr_cal_levels *lv, const wdr_cal_config *cfg, float *scratch, uint8_t *flags)
+static void array_reference(const wdr_cal_levels *lv, const wdr_cal_config *cfg, float *scratch, array_ref *a)
 {
     long np = (long)lv->width * lv->height;
-    double med_dark = wdr_cal_median_of(lv->dark, np, scratch);
-    double sig = mad_sigma(lv->dark, np, med_dark, scratch);
-    double med_low = wdr_cal_median_of(lv->frames, np, scratch);
-    double limit = fmax(8 * sig, cfg->hot_frac * fabs(med_dark - med_low));
-    for (long i = 0; i < np; i++)
-        if (!isfinite(lv->dark[i]) || med_dark - lv->dark[i] > limit)
-            flags[i] |= WDR_PIX_HOT;
+    double first = wdr_cal_median_of(lv->frames, np, scratch);
+    double last = wdr_cal_median_of(lv->frames + (long)(lv->n - 1) * np, np, scratch);
+    a->swing = first - last;
+    a->dark = wdr_cal_median_of(dark_reference(lv), np, scratch);
+    a->dark_sigma = mad_sigma(dark_reference(lv), np, a->dark, scratch);
+    a->hot_limit = fmax(HOT_SIGMAS * a->dark_sigma, cfg->hot_frac * fabs(a->dark - first));
+}
+
+/* One kind per pixel, by what each defect does to the frames (sim/SPEC.md, "Defects"), in this
+ * order of precedence:
+ *   saturated  the output sits at an ADC rail at some level: the code says nothing else;
+ *   stuck      the output does not follow light and sits away from where dark pixels read: the
+ *              hold node is held at a fixed voltage;
+ *   dead       the output does not follow light and sits where dark pixels read (no current:
+ *              the pixel holds its own reset level), or follows far less than the array's;
+ *   hot        the dark output sits far towards bright (a large dark current) while the pixel
+ *              still follows light (checked before the weak response of a dead pixel: a hot
+ *              pixel's dim levels are flat at its dark current, so its swing is short too).
+ * A stuck node held within the dark band gives the frames of a dead pixel and is called dead:
+ * frames cannot tell them apart. */
+static int pixel_kind(const wdr_cal_levels *lv, const wdr_cal_config *cfg, const array_ref *a, long i)
+{
+    long np = (long)lv->width * lv->height;
+    double lo = INFINITY, hi = -INFINITY, sum = 0;
+    int at_rail = 0;
+    for (int k = 0; k < lv->n; k++) {
+        double y = lv->frames[(long)k * np + i];
+        if (!isfinite(y))
+            return WDR_PIX_DEAD; /* no reading at all */
+        lo = fmin(lo, y), hi = fmax(hi, y), sum += y;
+        at_rail |= y <= 0.5 || y >= cfg->raw_max - 0.5;
+    }
+    if (at_rail)
+        return WDR_PIX_SATURATED;
+    double dark = dark_reference(lv)[i];
+    if (hi - lo <= cfg->stuck_frac * a->swing)
+        return fabs(sum / lv->n - a->dark) <= DARK_BAND_SIGMAS * a->dark_sigma ? WDR_PIX_DEAD : WDR_PIX_STUCK;
+    if (lv->dark && (!isfinite(dark) || a->dark - dark > a->hot_limit))
+        return WDR_PIX_HOT;
+    double swing = lv->frames[i] - lv->frames[(long)(lv->n - 1) * np + i];
+    return swing >= cfg->dead_frac * a->swing ? 0 : WDR_PIX_DEAD;
 }
 
 void wdr_cal_detect_bad(const wdr_cal_levels *lv, const wdr_cal_config *cfg, uint8_t *flags, int *saturated_levels)
@@ -108,14 +140,28 @@ void wdr_cal_detect_bad(const wdr_cal_levels *lv, const wdr_cal_config *cfg, uin
         free(scratch);
         return;
     }
-    double first = wdr_cal_median_of(lv->frames, np, scratch);
-    double last = wdr_cal_median_of(lv->frames + (long)(lv->n - 1) * np, np, scratch);
     for (int k = 0; k < lv->n; k++) {
         double m = wdr_cal_median_of(lv->frames + (long)k * np, np, scratch);
         *saturated_levels += m <= 0.5 || m >= cfg->raw_max - 0.5;
     }
-    flag_range(lv, cfg, first - last, flags);
-    if (lv->dark)
-        flag_hot(lv, cfg, scratch, flags);
+    array_ref a;
+    array_reference(lv, cfg, scratch, &a);
+    for (long i = 0; i < np; i++)
+        flags[i] = (uint8_t)pixel_kind(lv, cfg, &a, i);
     free(scratch);
+}
+
+const char *wdr_cal_flag_name(int bit)
+{
+    static const char *const names[WDR_CAL_FLAG_KINDS] = {"dead", "stuck", "hot", "saturated", "unfit"};
+    return bit >= 0 && bit < WDR_CAL_FLAG_KINDS ? names[bit] : "?";
+}
+
+const char *wdr_cal_flag_counts_text(const wdr_cal_result *res, char *buf, size_t cap)
+{
+    size_t n = 0;
+    buf[0] = 0;
+    for (int b = 0; b < WDR_CAL_FLAG_KINDS && n < cap; b++)
+        n += (size_t)snprintf(buf + n, cap - n, "%s%s %ld", b ? ", " : "", wdr_cal_flag_name(b), res->n_flag[b]);
+    return buf;
 }

@@ -5,6 +5,7 @@
 #define WDR_CAL_FIT_H
 #include "cal_model.h"
 #include "wdr_cal.h"
+#include <stddef.h>
 #include <stdint.h>
 
 #define WDR_CAL_MAX_LEVELS 48
@@ -127,8 +128,16 @@ typedef struct wdr_cal_result {
                              or its auto value) */
 } wdr_cal_result;
 
-/* Detect dead, stuck, hot and saturated pixels into flags (width*height, zeroed first). */
+/* Detect saturated, stuck, dead and hot pixels into flags (width*height, zeroed first): one kind
+ * per pixel, by the precedence in cal_bad.c. */
 void wdr_cal_detect_bad(const wdr_cal_levels *lv, const wdr_cal_config *cfg, uint8_t *flags, int *saturated_levels);
+
+/* The kinds of flag, by bit (WDR_PIX_DEAD = bit 0 .. WDR_PIX_UNFIT = bit 4), as the reports name
+ * them; each pixel carries one. */
+#define WDR_CAL_FLAG_KINDS 5
+const char *wdr_cal_flag_name(int bit);
+/* "dead D, stuck S, hot H, saturated A, unfit U" from res->n_flag into buf. @return buf */
+const char *wdr_cal_flag_counts_text(const wdr_cal_result *res, char *buf, size_t cap);
 
 /* Fit every pixel. levels: SIMPLE3 needs at least 3 (+1 dark-end reference first with
  * use_dark_ref), COMPLEX4 4 (+1): exactly that many is the paper's exact fit, more a least-squares

@@ -203,9 +203,11 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
 {
     const wdr_cal_result *res = &r->res;
     if (!o->json) {
-        printf("model %s, table form %s (%d coefficients), %ld of %ld pixels flagged\ncurrents:", cal_model_name(res->model),
-               cal_form_name(r->cfg.form), r->cfg.form == WDR_FORM_MOEBIUS ? 3 : r->cfg.n_coeffs,
-               res->n_bad, (long)res->width * res->height);
+        char kinds[160];
+        printf("model %s, table form %s (%d coefficients), %ld of %ld pixels flagged (%s)\ncurrents:",
+               cal_model_name(res->model), cal_form_name(r->cfg.form),
+               r->cfg.form == WDR_FORM_MOEBIUS ? 3 : r->cfg.n_coeffs, res->n_bad, (long)res->width * res->height,
+               wdr_cal_flag_counts_text(res, kinds, sizeof kinds));
         for (int k = 0; k < r->choice.n; k++)
             printf(" %.4g", r->choice.amps[k]);
         char pct[64];
@@ -237,10 +239,9 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
         cJSON_AddNumberToObject(a, "frames_needed", r->why.needed);
         cJSON_AddBoolToObject(a, "capped", r->why.capped);
     }
-    static const char *flag_names[] = {"dead", "stuck", "hot", "saturated", "unfit"};
-    cJSON *f = cJSON_AddObjectToObject(j, "flags");
-    for (int b = 0; b < 5; b++)
-        cJSON_AddNumberToObject(f, flag_names[b], (double)res->n_flag[b]);
+    cJSON *f = cJSON_AddObjectToObject(j, "flags"); /* one kind per pixel: these add up to pixels_flagged */
+    for (int b = 0; b < WDR_CAL_FLAG_KINDS; b++)
+        cJSON_AddNumberToObject(f, wdr_cal_flag_name(b), (double)res->n_flag[b]);
     cJSON *why = cJSON_AddObjectToObject(j, "unfit_reasons");
     for (int st = 1; st < WDR_FIT_COUNT; st++)
         if (res->n_status[st])

@@ -146,7 +146,9 @@ static int evaluate_model(report *rp, condition *c, model_report *m)
         fprintf(stderr, "; one frame with temporal noise %.3g %%, %d frames averaged", m->worst_total_1, c->o.frames);
     if (c->o.adc && !c->o.noise)
         fprintf(stderr, "; %.2fx its floor", m->worst_floor_ratio);
-    fputc('\n', stderr);
+    char kinds[160];
+    fprintf(stderr, "; %ld pixels flagged (%s)\n", m->run.res.n_bad,
+            wdr_cal_flag_counts_text(&m->run.res, kinds, sizeof kinds));
     return rc;
 }
 
@@ -482,6 +484,9 @@ static cJSON *model_json(const condition *c, const model_report *m)
                             : m->model == WDR_MODEL_COMPLEX4 ? 40
                                                              : 0);
     cJSON_AddNumberToObject(j, "pixels_flagged", (double)r->res.n_bad);
+    cJSON *f = cJSON_AddObjectToObject(j, "flags"); /* one kind per pixel: these add up to pixels_flagged */
+    for (int b = 0; b < WDR_CAL_FLAG_KINDS; b++)
+        cJSON_AddNumberToObject(f, wdr_cal_flag_name(b), (double)r->res.n_flag[b]);
     return j;
 }
 
