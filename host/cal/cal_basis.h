@@ -38,6 +38,13 @@ typedef struct wdr_basis {
 int wdr_cal_basis_learn(const wdr_cal_result *res, int n, int shifted, wdr_basis *b, char *err, int errlen);
 void wdr_cal_basis_free(wdr_basis *b);
 
+/* The table's two parts apart (wdr_cal_build_table is both): the shared basis the fit's form needs
+ * (zeroed for a form without one), learnt once per calibration, and the per-pixel build over it.
+ * The study times them apart: the learning is a fixed cost, the build a per-pixel one. */
+int wdr_cal_table_basis(const wdr_cal_result *res, wdr_basis *basis, char *err, int errlen);
+int wdr_cal_build_table_with(const wdr_cal_result *res, const wdr_basis *basis, uint32_t sensor_id, int operator_id,
+                             uint8_t **out, size_t *out_len, char *err, int errlen);
+
 /* A SHIFTED basis: the pixel's code shift (-64..63) from its samples, and its samples moved by it
  * as the kernel moves its codes (min(y + shift, raw_max)); 0 and unchanged otherwise. */
 int wdr_cal_basis_shift(const wdr_basis *b, wdr_map_samples *s);

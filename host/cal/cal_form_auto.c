@@ -4,11 +4,11 @@
  * for all forms, and for compact and shifted the worst over bench_shifted's chips: seeds 11, 3, 7
  * at 64x48 and 96x72 for Reinhard, Tumblin-Rushmeier and Drago; the other four at seed 11 only
  * (reinhard_white compact: seeds 11, 3). Tumblin-Rushmeier's shifted form reaches 1.56 % at 96x72
- * (0.88-0.98 % at 64x48), so auto gives it basis-8. The 12-bit ratio to the floor
- * is bench_floor's (64x48, seed 11, converters on, temporal noise off; basis-8 on Reinhard 0.98x
- * as test_cal_endslope): it rejects compact on Schlick (1.65x), where shifted takes it (0.97x).
- * Within an operator the rows are ordered smallest first: bytes per pixel, then (equal bytes)
- * the cheaper calibration (compact learns its basis once, shifted twice). */
+ * (0.88-0.98 % at 64x48; 1.00-1.21 % at 160x120, seeds 11, 3, 7), so auto gives it basis-8.
+ * The 12-bit ratio to the floor is bench_floor's (64x48, seed 11, converters on, temporal noise
+ * off; basis-8 on Reinhard 0.98x as test_cal_endslope): it rejects compact on Schlick (1.65x), where shifted takes it
+ * (0.97x). Within an operator the rows are ordered smallest first: bytes per pixel, then (equal bytes) the cheaper
+ * calibration (compact learns its basis once, shifted twice). */
 #include "cal_form_auto.h"
 #include "wdr_cal.h"
 #include "wdr_lut.h"

@@ -66,7 +66,9 @@ static double pixel_response(const wdr_cal_result *res, long i, double x)
         return code_for_current(res, i, x);
     if (res->model == WDR_MODEL_SPLINE) {
         wdr_pchip c;
-        return wdr_pchip_init_ends(&c, res->nominal.curve.lx, p, res->nominal.curve.n, res->nominal.end_ratio) ? 0 : wdr_pchip_eval(&c, log(x));
+        return wdr_pchip_init_ends(&c, res->nominal.curve.lx, p, res->nominal.curve.n, res->nominal.end_ratio)
+                   ? 0
+                   : wdr_pchip_eval(&c, log(x));
     }
     if (res->model == WDR_MODEL_SIMPLE3) {
         wdr_simple3 m = {p[0], p[1], p[2], p[3], res->x_scale};
@@ -221,31 +223,61 @@ static int check_form(const wdr_cal_result *res, char *err, int errlen)
     return WDR_OK;
 }
 
-int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int operator_id, uint8_t **out,
-                        size_t *out_len, char *err, int errlen)
+static int table_coeffs(const wdr_cal_result *res)
+{
+    int form = res->cfg.form;
+    return form == WDR_FORM_MOEBIUS ? 3 : wdr_cal_form_compact((uint16_t)form) ? 4 : res->cfg.n_coeffs;
+}
+
+static int form_shared(int form)
+{
+    return form == WDR_FORM_BASIS || wdr_cal_form_compact((uint16_t)form);
+}
+
+int wdr_cal_table_basis(const wdr_cal_result *res, wdr_basis *basis, char *err, int errlen)
+{
+    int rc = check_form(res, err, errlen);
+    *basis = (wdr_basis){0};
+    if (rc || !form_shared(res->cfg.form))
+        return rc;
+    return wdr_cal_basis_learn(res, table_coeffs(res), res->cfg.form == WDR_FORM_SHIFTED, basis, err, errlen);
+}
+
+int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int operator_id, uint8_t **out, size_t *out_len,
+                        char *err, int errlen)
+{
+    wdr_basis basis;
+    int rc = wdr_cal_table_basis(res, &basis, err, errlen);
+    if (!rc)
+        rc = wdr_cal_build_table_with(res, &basis, sensor_id, operator_id, out, out_len, err, errlen);
+    wdr_cal_basis_free(&basis);
+    return rc;
+}
+
+int wdr_cal_build_table_with(const wdr_cal_result *res, const wdr_basis *shared_basis, uint32_t sensor_id,
+                             int operator_id, uint8_t **out, size_t *out_len, char *err, int errlen)
 {
     int rc = check_form(res, err, errlen);
     if (rc)
         return rc;
     const wdr_cal_config *cfg = &res->cfg;
     int form = cfg->form, compact = wdr_cal_form_compact((uint16_t)form);
-    int nc = form == WDR_FORM_MOEBIUS ? 3 : compact ? 4 : cfg->n_coeffs;
-    int shared = form == WDR_FORM_BASIS || compact;
+    int nc = table_coeffs(res);
+    int shared = form_shared(form);
     long np = (long)res->width * res->height;
-    wdr_basis basis = {0};
-    if (shared && (rc = wdr_cal_basis_learn(res, nc, form == WDR_FORM_SHIFTED, &basis, err, errlen)))
-        return rc;
-    size_t len = form == WDR_FORM_BASIS
-                     ? wdr_cal_size_basis((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc,
-                                          (uint32_t)basis.points)
-                 : compact
-                     ? wdr_cal_size_compact((uint16_t)res->width, (uint16_t)res->height, (uint32_t)basis.points)
-                     : wdr_cal_size((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc);
+    const wdr_basis basis = *shared_basis; /* a view: the caller owns the table */
+    if (shared && (!basis.table || basis.n != nc)) {
+        snprintf(err, (size_t)errlen, "shared basis: %d functions given for a %d-coefficient form", basis.n, nc);
+        return WDR_E_INVAL;
+    }
+    size_t len = form == WDR_FORM_BASIS ? wdr_cal_size_basis((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc,
+                                                             (uint32_t)basis.points)
+                 : compact ? wdr_cal_size_compact((uint16_t)res->width, (uint16_t)res->height, (uint32_t)basis.points)
+                           : wdr_cal_size((uint16_t)res->width, (uint16_t)res->height, (uint16_t)nc);
     float *coeffs = malloc(sizeof(float) * (size_t)nc * (size_t)np);
     uint8_t *flags = malloc((size_t)np), *buf = aligned_alloc(8, (len + 7) & ~(size_t)7);
     if (!coeffs || !flags || !buf) {
         free(coeffs), free(flags), free(buf);
-        wdr_cal_basis_free(&basis);
         snprintf(err, (size_t)errlen, "out of memory for a %zu-byte table", len);
         return WDR_E_NOMEM;
     }
@@ -260,16 +292,24 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
         }
         bad += flags[i] != 0;
         if (form == WDR_FORM_SHIFTED) /* the pixel byte: 128 | flags, or the shift + 64 */
-            flags[i] = flags[i] ? (uint8_t)(WDR_CAL_SHIFT_FLAGGED | flags[i])
-                                : (uint8_t)(shift + (int)WDR_CAL_SHIFT_ZERO);
+            flags[i] =
+                flags[i] ? (uint8_t)(WDR_CAL_SHIFT_FLAGGED | flags[i]) : (uint8_t)(shift + (int)WDR_CAL_SHIFT_ZERO);
         for (int k = 0; k < nc; k++)
             coeffs[(long)k * np + i] = (float)c[k];
     }
-    wdr_cal_header h = {.sensor_id = sensor_id, .width = (uint16_t)res->width, .height = (uint16_t)res->height,
-                        .form = (uint16_t)form, .n_coeffs = (uint16_t)nc, .model = (uint16_t)res->model,
-                        .operator_id = (uint16_t)operator_id, .in_scale = (float)(2 / cfg->raw_max),
-                        .in_offset = -1.0f, .out_scale = cfg->out_scale, .out_max = cfg->out_max,
-                        .raw_max = (uint16_t)cfg->raw_max, .bad_pixels = bad};
+    wdr_cal_header h = {.sensor_id = sensor_id,
+                        .width = (uint16_t)res->width,
+                        .height = (uint16_t)res->height,
+                        .form = (uint16_t)form,
+                        .n_coeffs = (uint16_t)nc,
+                        .model = (uint16_t)res->model,
+                        .operator_id = (uint16_t)operator_id,
+                        .in_scale = (float)(2 / cfg->raw_max),
+                        .in_offset = -1.0f,
+                        .out_scale = cfg->out_scale,
+                        .out_max = cfg->out_max,
+                        .raw_max = (uint16_t)cfg->raw_max,
+                        .bad_pixels = bad};
     if (shared) {
         h.in_scale = (float)(1 / basis.step), h.in_offset = (float)(-basis.lo / basis.step); /* as kernel_basis */
         h.shared_points = (uint32_t)basis.points;
@@ -279,7 +319,6 @@ int wdr_cal_build_table(const wdr_cal_result *res, uint32_t sensor_id, int opera
             wdr_cal_encode_basis(&h, basis.table, coeffs, flags, buf);
     } else
         wdr_cal_encode(&h, coeffs, flags, buf);
-    wdr_cal_basis_free(&basis);
     free(coeffs);
     free(flags);
     *out = buf;
