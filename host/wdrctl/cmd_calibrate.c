@@ -162,7 +162,7 @@ static long display_left_out(const verify_result *vr, const wdr_display_error *d
 }
 
 /* What each verification figure left out, per current: flagged pixels and unresolved ones. */
-static void add_left_out_json(cJSON *j, const cal_run *r, const verify_result *vr)
+static void add_left_out_json(cJSON *j, const verify_result *vr)
 {
     double a[3][VERIFY_CURRENTS];
     for (int k = 0; k < vr->n; k++) {
@@ -171,8 +171,6 @@ static void add_left_out_json(cJSON *j, const cal_run *r, const verify_result *v
         a[1][k] = (double)(p->table.excluded + p->table.unresolved);
         a[2][k] = (double)p->total.left_out;
     }
-    cJSON_AddNumberToObject(j, "pixels", (double)r->res.width * r->res.height);
-    cJSON_AddNumberToObject(j, "pixels_flagged", (double)r->res.n_bad);
     cJSON_AddItemToObject(j, "pixels_left_out_before", cJSON_CreateDoubleArray(a[0], vr->n));
     cJSON_AddItemToObject(j, "pixels_left_out_after_table", cJSON_CreateDoubleArray(a[1], vr->n));
     cJSON_AddItemToObject(j, "pixels_left_out_one_frame", cJSON_CreateDoubleArray(a[2], vr->n));
@@ -197,7 +195,7 @@ static cJSON *verification_json(const verify_ctx *v, const cal_run *r, const ver
     cJSON_AddNumberToObject(j, "frames_averaged", vr->frames);
     for (int q = 0; q < 7; q++)
         cJSON_AddItemToObject(j, names[q], cJSON_CreateDoubleArray(a[q], vr->n));
-    add_left_out_json(j, r, vr);
+    add_left_out_json(j, vr);
     int nd = wdr_display_by_decade(per, vr->n, dec, 8);
     cJSON *d = cJSON_AddArrayToObject(j, "display_error_per_decade");
     for (int k = 0; k < nd; k++) {
@@ -214,7 +212,7 @@ static cJSON *verification_json(const verify_ctx *v, const cal_run *r, const ver
                             "figures of host/cal/cal_metrics.h (as wdrctl fpn report): contrast error "
                             "100 sd of ln(x_hat/x) on fresh frames, averaged over frames_averaged; total "
                             "and temporal from single frames. Every figure leaves out the pixels_flagged "
-                            "pixels, and the contrast errors also those with no x_hat within a decade of "
+                            "pixels (above), and the contrast errors also those with no x_hat within a decade of "
                             "the range: pixels_left_out_* count both, per current (per decade: summed "
                             "over its currents)");
     return j;
