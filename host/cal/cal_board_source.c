@@ -70,6 +70,14 @@ int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, do
     return rc;
 }
 
+int wdr_cal_board_has_lut(wdr_cal_board *d, int *has_lut)
+{
+    wdr_status_report st;
+    int rc = wdr_client_status(d->client, &st);
+    *has_lut = rc == WDR_OK && st.lut_slot != WDR_SLOT_NONE;
+    return rc;
+}
+
 int wdr_cal_board_store_table(wdr_cal_board *d, const uint8_t *table, size_t len)
 {
     wdr_commit_reply reply;

@@ -35,6 +35,10 @@ int wdr_cal_board_close(wdr_cal_board *d);
 int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double *added_s, double *done_v,
                             char *err, int errlen);
 
+/* Whether the board plays a LUT (STATUS: an active LUT slot): without one it refuses every
+ * capture, so calibration asks before it captures. @retval WDR_OK (*has_lut set), or the client's error */
+int wdr_cal_board_has_lut(wdr_cal_board *d, int *has_lut);
+
 /* Store a calibration table and make it active. @retval WDR_OK, or the client's error */
 int wdr_cal_board_store_table(wdr_cal_board *d, const uint8_t *table, size_t len);
 

@@ -121,6 +121,7 @@ void wdr_total_error_of(const double *x_hat_a, const double *x_hat_b, const doub
     wdr_contrast_of(x_hat_m, n, x, x_lo, x_hi, &cm);
     out->total_1_pct = ca.sd_pct;
     out->total_m_pct = cm.sd_pct;
+    out->left_out = ca.excluded + ca.unresolved;
     out->temporal_pct =
         temporal_pct(x_hat_a, x_hat_b, n, x_lo * pow(10, -UNRESOLVED_DECADES), x_hi * pow(10, UNRESOLVED_DECADES));
     out->fpn_pct = sqrt(fmax(ca.sd_pct * ca.sd_pct - out->temporal_pct * out->temporal_pct, 0));
@@ -321,7 +322,12 @@ int wdr_eval_point_measure(const wdr_cal_result *res, const wdr_cal_view *tab, c
             memcpy(b.one, first, sizeof(float) * (size_t)np);
             rc = measure_total(res, tab, src, x, o, &b, out);
         } else { /* no temporal noise: every frame is the same, all of it is FPN */
-            out->total = (wdr_total_error){x, out->table.sd_pct, 0, out->table.sd_pct, m, out->table.sd_pct};
+            out->total = (wdr_total_error){.x = x,
+                                           .fpn_pct = out->table.sd_pct,
+                                           .total_1_pct = out->table.sd_pct,
+                                           .frames = m,
+                                           .total_m_pct = out->table.sd_pct,
+                                           .left_out = out->table.excluded + out->table.unresolved};
         }
     }
     free(first);

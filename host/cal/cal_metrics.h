@@ -72,6 +72,7 @@ typedef struct wdr_total_error {
     double total_1_pct;  /* one frame, FPN plus temporal (contrast error of frame a) */
     int frames;          /* frames averaged for total_m_pct */
     double total_m_pct;  /* contrast error of the average of `frames` frames, measured */
+    long left_out;       /* pixels left out of total_1 (excluded or unresolved in frame a) */
 } wdr_total_error;
 
 /* From x_hat of two independent single frames a and b and of an average of `frames` frames

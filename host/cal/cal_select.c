@@ -63,9 +63,10 @@ static double fpn_only_pct(const wdr_cal_levels *s, const wdr_cal_result *res, i
     return v > 0 ? sqrt(v) : 0;
 }
 
-/* Worst sd over the levels in range for one candidate set; INFINITY when it cannot be fitted. */
+/* Worst sd over the levels in range for one candidate set; INFINITY when it cannot be fitted.
+ * *left_out: the sampled pixels its fit flagged, which the worst leaves out. */
 static double judge(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *idx, int n,
-                    const int *eval, int n_eval, double *worst_at)
+                    const int *eval, int n_eval, double *worst_at, long *left_out)
 {
     wdr_cal_levels lv;
     wdr_cal_result res;
@@ -76,6 +77,7 @@ static double judge(const wdr_cal_levels *s, const wdr_cal_config *cfg, const do
     lv.dark = s->dark;
     if (!wdr_cal_fit_array(&lv, cfg, &res, err, sizeof err) && res.n_bad * 4 < (long)s->width) {
         worst = 0;
+        *left_out = res.n_bad;
         for (int e = 0; e < n_eval && worst < INFINITY; e++) {
             wdr_fpn_stats st;
             int k = eval[e], used = 0;
@@ -97,13 +99,14 @@ static double judge(const wdr_cal_levels *s, const wdr_cal_config *cfg, const do
 }
 
 static void keep_if_better(wdr_cal_choice *best, const wdr_cal_levels *s, const int *idx, int n, double worst,
-                           double at)
+                           double at, long left_out)
 {
     best->tried++;
     if (!(worst < best->worst_pct))
         return;
     best->worst_pct = worst;
     best->worst_at = at;
+    best->judged = s->width, best->left_out = left_out;
     best->n = n;
     for (int k = 0; k < n; k++) {
         best->idx[k] = idx[k];
@@ -139,8 +142,10 @@ static void search_subsets(const wdr_cal_levels *s, const wdr_cal_config *cfg, c
         idx[0] = -1;
         for (int j = 0; j < k; j++)
             idx[ref + j] = cand[pos[j]];
-        double at = 0, w = judge(s, cfg, med, idx, k + ref, eval, n_eval, &at);
-        keep_if_better(best, s, idx, k + ref, w, at);
+        double at = 0;
+        long left_out = 0;
+        double w = judge(s, cfg, med, idx, k + ref, eval, n_eval, &at, &left_out);
+        keep_if_better(best, s, idx, k + ref, w, at, left_out);
         int j = k - 1;
         while (j >= 0 && pos[j] == nc - k + j)
             j--;
@@ -208,8 +213,10 @@ static void search_warped(const wdr_cal_levels *s, const wdr_cal_config *cfg, co
         if (!warped_set(s, cand, nc, n, gammas[g], idx + ref))
             continue;
         int m = prune_close(s, cfg, med, idx, n + ref);
-        double at = 0, w = judge(s, cfg, med, idx, m, eval, n_eval, &at);
-        keep_if_better(best, s, idx, m, w, at);
+        double at = 0;
+        long left_out = 0;
+        double w = judge(s, cfg, med, idx, m, eval, n_eval, &at, &left_out);
+        keep_if_better(best, s, idx, m, w, at, left_out);
     }
 }
 

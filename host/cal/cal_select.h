@@ -14,6 +14,8 @@ typedef struct wdr_cal_choice {
     double worst_pct;               /* worst contrast error (sd, %) over the grid in range */
     double worst_at;                /* current where it happens (A) */
     long tried;                     /* candidate sets evaluated */
+    long judged;                    /* sampled pixels worst_pct was judged on, and of them those */
+    long left_out;                  /* the chosen set's fit flagged, which worst_pct leaves out */
 } wdr_cal_choice;
 
 /* Pick n_currents calibration currents from grid (levels rising; its dark frame is the dark

@@ -25,6 +25,30 @@ const char *cal_form_name(int form)
                                       : "poly";
 }
 
+int cal_parse_flag_limit(const char *text, cal_flag_limit *out)
+{
+    size_t n = strlen(text);
+    int ppm = n > 3 && !strcmp(text + n - 3, "ppm");
+    char num[64];
+    snprintf(num, sizeof num, "%.*s", (int)(ppm ? n - 3 : n), text);
+    long long whole = 0;
+    double v = 0;
+    int bad = n >= sizeof num ||
+              (ppm ? cli_number_double(num, 0, 1e6, &v) : cli_number_long(num, 0, 1LL << 40, &whole)) != CLI_NUM_OK;
+    if (bad)
+        return wdrctl_fail(EX_USAGE,
+                           "option --max-flagged: '%s' must be a whole number of pixels (N, 0 or more) or parts per "
+                           "million of the chip's pixels (Nppm, 0..1e6ppm)",
+                           text);
+    *out = (cal_flag_limit){ppm ? v : (double)whole, ppm, text};
+    return EX_OK;
+}
+
+double cal_flag_limit_pixels(const cal_flag_limit *l, long n_pixels)
+{
+    return l->ppm ? l->value * (double)n_pixels / 1e6 : l->value;
+}
+
 int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o)
 {
     int n_args;
@@ -44,6 +68,9 @@ int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o
                                o->frames_text);
         o->frames = (int)n;
     }
+    rc = cal_parse_flag_limit(o->max_flagged_text ? o->max_flagged_text : CAL_MAX_FLAGGED_DEFAULT, &o->max_flagged);
+    if (rc != EX_OK)
+        return rc;
     /* --device or $WDR_DEVICE: a board when one is named. But --board names the simulator to
      * calibrate: then only an explicit --device sends the run (and its uploads) to a board. */
     const char *env = wdrctl_global.device, *from_env = getenv("WDR_DEVICE");

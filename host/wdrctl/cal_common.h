@@ -28,12 +28,28 @@ int cal_min_select(int model, int n_coeffs);
 /* "1.23 %" for a finite percentage, else "n/a (why)": no NaN or Inf reaches a printed figure. */
 const char *cal_pct_text(double pct, const char *why, char *buf, size_t cap);
 
+/* calibrate --max-flagged N|Nppm: the most pixels the fit may flag (N pixels, or N parts per
+ * million of the chip) before calibrate fails with EX_DATAERR and writes and uploads nothing. */
+typedef struct cal_flag_limit {
+    double value; /* pixels, or ppm of the chip's pixels when ppm is set */
+    int ppm;
+    const char *text; /* as given (or the default) */
+} cal_flag_limit;
+#define CAL_MAX_FLAGGED_DEFAULT "100ppm"
+/* "N" (a whole number of pixels) or "Nppm" (a number >= 0 of parts per million).
+ * @return EX_OK, or EX_USAGE with the message naming the option and the value */
+int cal_parse_flag_limit(const char *text, cal_flag_limit *out);
+/* The limit in pixels on a chip of n_pixels (ppm * n_pixels / 1e6 for a rate: not rounded). */
+double cal_flag_limit_pixels(const cal_flag_limit *l, long n_pixels);
+
 typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
     int select_n, frames, adc, dac, upload, json, sample, out_scale;
     int noise;       /* simulated chip: temporal noise (shot, kTC, read); calibrate --noise, fpn report per condition */
     int noise_asked; /* --noise was given (a board has its own noise: calibrate --device refuses it) */
     const char *frames_text; /* --frames M or auto */
+    const char *max_flagged_text; /* calibrate --max-flagged N|Nppm */
+    cal_flag_limit max_flagged;   /* parsed (default CAL_MAX_FLAGGED_DEFAULT) */
     int frames_auto;         /* --frames auto (the default): chosen from the probe's measured noise */
     int form;                /* enum wdr_cal_form; CAL_FORM_AUTO (the default): chosen by the target */
     uint64_t seed;
