@@ -2,7 +2,8 @@
 # Issue 19 item 5: `wdrctl calibrate --json` on a simulated board whose scene plants defects at
 # given positions counts each kind as planted (one kind per pixel, host/cal/cal_bad.c), and the
 # text summary says the same. Four of each kind on sim-qvga (160x120); the stuck voltages this
-# seed draws lie away from the dark level (a stuck node held there reads as dead).
+# seed draws lie away from the dark level (a stuck node held there reads as dead). --max-flagged
+# 16: the 16 planted pixels are over the default limit of 100 ppm (1.92 pixels here).
 # usage: calibrate_defect_kinds.sh WDRCTL WDR_SIMBOARD SOURCE_DIR
 set -eu
 wdrctl=$1 simboard=$2 src=$3
@@ -28,7 +29,7 @@ pid=$!
 export WDR_DEVICE="sim:$dir/b.sock"
 "$wdrctl" info --wait 10000 >/dev/null
 "$wdrctl" lut build --operator reinhard -o "$dir/r.lut" >/dev/null
-"$wdrctl" calibrate --lut "$dir/r.lut" -o "$dir/cal.bin" --frames 4 --json >"$dir/cal.json" 2>"$dir/cal.log"
+"$wdrctl" calibrate --lut "$dir/r.lut" -o "$dir/cal.bin" --frames 4 --max-flagged 16 --json >"$dir/cal.json" 2>"$dir/cal.log"
 got=$(jq -c '.flags' "$dir/cal.json")
 echo "flags by kind: $got (pixels_flagged $(jq .pixels_flagged "$dir/cal.json"))"
 want='{"dead":4,"stuck":4,"hot":4,"saturated":4,"unfit":0}'
