@@ -1,5 +1,5 @@
 /* Bad pixels from the calibration frames: dead, stuck, hot, saturated; array medians. */
-#include "cal_fit_internal.h"
+#include "cal_stats.h"
 #include "wdr_err.h"
 #include <math.h>
 #include <stdio.h>
