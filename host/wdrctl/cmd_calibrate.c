@@ -1,6 +1,6 @@
 /* wdrctl calibrate: fixed-pattern-noise calibration of the simulator itself (default) or of a
  * board (--device): a simulated board sets its illuminant, a real one asks a person to set each
- * light level. The frame source for a board is host/cal/cal_board_source.c. */
+ * light level. The frame source for a board is host/cal/acquire/cal_board_source.c. */
 #include "cal_board_source.h"
 #include "cal_common.h"
 #include "cal_form_auto.h"
@@ -82,7 +82,7 @@ static int close_device(device_src *d, int rc)
     return rc;
 }
 
-/* ---- verification: the figures of host/cal/cal_metrics.h on fresh frames ---- */
+/* ---- verification: the figures of host/cal/metrics/cal_metrics.h on fresh frames ---- */
 
 #define VERIFY_CURRENTS 7      /* log-spaced over the calibrated range, about one per decade */
 #define VERIFY_MAX_FRAMES 4    /* frames averaged per verification frame (at most the calibration's) */
@@ -162,7 +162,7 @@ static cJSON *verification_json(const verify_ctx *v, const verify_result *vr)
         cJSON_AddNumberToObject(e, "frac_off_by_more_than_1_level", dec[k].frac_over_1);
         cJSON_AddItemToArray(d, e);
     }
-    cJSON_AddStringToObject(j, "note", "figures of host/cal/cal_metrics.h (as wdrctl fpn report): contrast error "
+    cJSON_AddStringToObject(j, "note", "figures of host/cal/metrics/cal_metrics.h (as wdrctl fpn report): contrast error "
                                        "100 sd of ln(x_hat/x) on fresh frames, averaged over frames_averaged; total "
                                        "and temporal from single frames");
     return j;

@@ -3,7 +3,7 @@
  * temporal noise averaged away, and the default (converters and temporal noise on, the frames the
  * calibration averages). Contrast error before and after with the quantisation floor beside it,
  * display-space error per decade, total error (FPN plus temporal), model error, DSNU/PRNU,
- * histograms and test images (the paper's Fig. 4-8). The figures come from host/cal/cal_metrics.h,
+ * histograms and test images (the paper's Fig. 4-8). The figures come from host/cal/metrics/cal_metrics.h,
  * as `wdrctl calibrate --json` and the benchmarks. */
 #include "cal_common.h"
 #include "correct.h"
