@@ -1,6 +1,6 @@
 /* wdrctl calibrate: fixed-pattern-noise calibration of the simulator itself (default) or of a
  * board (--device): a simulated board sets its illuminant, a real one asks a person to set each
- * light level. The frame source for a board is host/cal/cal_board_source.c. */
+ * light level. The frame source for a board is host/cal/acquire/cal_board_source.c. */
 #include "cal_board_source.h"
 #include "cal_common.h"
 #include "cal_form_auto.h"
@@ -101,7 +101,7 @@ static int close_device(device_src *d, int rc)
     return rc;
 }
 
-/* ---- verification: the figures of host/cal/cal_metrics.h on fresh frames ---- */
+/* ---- verification: the figures of host/cal/metrics/cal_metrics.h on fresh frames ---- */
 
 #define VERIFY_CURRENTS 7      /* log-spaced over the calibrated range, about one per decade */
 #define VERIFY_MAX_FRAMES 4    /* frames averaged per verification frame (at most the calibration's) */
@@ -209,7 +209,7 @@ static cJSON *verification_json(const verify_ctx *v, const cal_run *r, const ver
         cJSON_AddItemToArray(d, e);
     }
     cJSON_AddStringToObject(j, "note",
-                            "figures of host/cal/cal_metrics.h (as wdrctl fpn report): contrast error "
+                            "figures of host/cal/metrics/cal_metrics.h (as wdrctl fpn report): contrast error "
                             "100 sd of ln(x_hat/x) on fresh frames, averaged over frames_averaged; total "
                             "and temporal from single frames. Every figure leaves out the pixels_flagged "
                             "pixels (above), and the contrast errors also those with no x_hat within a decade of "

@@ -3,7 +3,7 @@
  * temporal noise averaged away, and the default (converters and temporal noise on, the frames the
  * calibration averages). Contrast error before and after with the quantisation floor beside it,
  * display-space error per decade, total error (FPN plus temporal), model error, DSNU/PRNU,
- * histograms and test images (the paper's Fig. 4-8). The figures come from host/cal/cal_metrics.h,
+ * histograms and test images (the paper's Fig. 4-8). The figures come from host/cal/metrics/cal_metrics.h,
  * as `wdrctl calibrate --json` and the benchmarks. */
 #include "cal_common.h"
 #include "correct.h"
@@ -162,7 +162,7 @@ static int evaluate_model(report *rp, condition *c, model_report *m)
         fprintf(stderr, "; %.2fx its floor", m->worst_floor_ratio);
     char kinds[160];
     fprintf(stderr, "; %ld pixels flagged (%s)\n", m->run.res.n_bad,
-            wdr_cal_flag_counts_text(&m->run.res, kinds, sizeof kinds));
+            wdr_cal_flag_counts_text(m->run.res.n_flag, kinds, sizeof kinds));
     return rc;
 }
 

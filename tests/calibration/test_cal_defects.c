@@ -233,7 +233,7 @@ static kind_run run_kinds(const chip_case *cc, double ppm)
            "(%.2f ppm); %d frames\n",
            cc->w, cc->h, (unsigned long long)cc->seed, cc->mismatch, cc->op, r.planted[1], r.planted[2], r.planted[3],
            r.planted[4], r.right[1], r.right[2], r.right[3], r.right[4], r.stuck_in_dark_band, r.wrong,
-           wdr_cal_flag_counts_text(&res, kinds, sizeof kinds), r.counts_wrong ? " WRONG" : "", r.healthy_flagged,
+           wdr_cal_flag_counts_text(res.n_flag, kinds, sizeof kinds), r.counts_wrong ? " WRONG" : "", r.healthy_flagged,
            1e6 * (double)r.healthy_flagged / (double)r.np, r.frames);
     wdr_cal_levels_free(&lv);
     wdr_cal_result_free(&res);

@@ -119,7 +119,7 @@ typedef struct model_case {
 /* The spline (the N-current model the product calibrates with): within 1.2x its floor through the
  * model (measured 1.09x) and through its shared-basis table (0.98x: the basis, learnt from samples
  * that cover the code range evenly, smooths over the levels' rounding mid-range; learnt from 64
- * log-spaced currents only it was 1.24x, see host/cal/cal_basis.c). The paper's models: an exact
+ * log-spaced currents only it was 1.24x, see host/cal/table/cal_basis.c). The paper's models: an exact
  * fit through their 3 or 4 rounded codes passes the rounding on with a gain above 1 when
  * extrapolated over six decades (measured 1.74x simple3, 1.63x / 1.83x complex4); a least-squares
  * fit on the code residuals of 5 levels averages it: simple3 0.83x, complex4 0.89x / 0.94x

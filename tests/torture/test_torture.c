@@ -328,7 +328,7 @@ static void bad_pixels_flagged(void **state)
     assert_int_equal(wdr_correct_row(&v, row, raw, out), WDR_OK);
     assert_true(abs((int)out[col] - (int)out[col - 1]) < 64 && abs((int)out[col] - (int)out[col + 1]) < 64);
     char kinds[160];
-    printf("  bad pixels: %ld flagged (%s)\n", res.n_bad, wdr_cal_flag_counts_text(&res, kinds, sizeof kinds));
+    printf("  bad pixels: %ld flagged (%s)\n", res.n_bad, wdr_cal_flag_counts_text(res.n_flag, kinds, sizeof kinds));
     free(tb);
     wdr_cal_result_free(&res);
     run_all_models(&lv, "bad pixels");

@@ -3,7 +3,7 @@
  * protocol, or a real board with a person setting the light). */
 #ifndef WDR_CAL_ENGINE_H
 #define WDR_CAL_ENGINE_H
-#include "cal_fit.h"
+#include "cal_levels.h"
 #include "wdr_sim.h"
 #include <stdint.h>
 

@@ -1,5 +1,5 @@
 /* Array calibration: configuration, checks, per-pixel fits of every model, recovery. The pieces:
- * cal_pchip.c (monotone cubic), cal_nominal.c (nominal pixel), cal_bad.c (bad pixels),
+ * cal_pchip.c (monotone cubic), cal_nominal.c and cal_fit_nominal.c (nominal pixel), cal_bad.c (bad pixels),
  * cal_fit_paper.c, cal_fit_lsq.c, cal_fit_spline.c (per-model fits). Tables: cal_table.c. */
 #include "cal_design.h"
 #include "cal_fit_internal.h"
@@ -64,12 +64,6 @@ static int params_of(int model, int n_coeffs)
     default:
         return n_coeffs;
     }
-}
-
-
-int wdr_cal_is_curve_model(int model)
-{
-    return model == WDR_MODEL_LSQ || model == WDR_MODEL_POLYMAP || model == WDR_MODEL_SPLINE;
 }
 
 static int check_levels(const wdr_cal_levels *lv, const wdr_cal_config *cfg, char *err, int errlen)

@@ -12,7 +12,9 @@ typedef struct wdr_map_samples {
     double y[WDR_BASIS_SAMPLES], t[WDR_BASIS_SAMPLES], w[WDR_BASIS_SAMPLES];
 } wdr_map_samples;
 
-/* Fill s for pixel i (in cal_table.c, beside the polynomial form's sampling). */
+/* m currents log-spaced over the nominal pixel's range [x_lo, x_hi] (cal_map_samples.c). */
+void wdr_cal_map_log_spaced(const wdr_cal_result *res, double *xs, int m);
+/* Fill s for pixel i (cal_map_samples.c, shared with the polynomial form's sampling). */
 void wdr_cal_map_samples(const wdr_cal_result *res, long i, wdr_map_samples *s);
 /* The same at any m currents xs: codes y, targets t, weights w (the shared table's dense fit). */
 void wdr_cal_map_samples_at(const wdr_cal_result *res, long i, const double *xs, int m, double *y, double *t,

@@ -1,17 +1,11 @@
-/* Internal to the calibration fits (host/cal/cal_*.c): what the split files share. Not for
- * callers outside host/cal; the public interface is cal_fit.h. */
+/* Internal to the calibration fits (host/cal/fit/cal_*.c): what the split files share. Not for
+ * callers outside host/cal; the public interface is cal_fit.h (the statistics': cal_stats.h). */
 #ifndef WDR_CAL_FIT_INTERNAL_H
 #define WDR_CAL_FIT_INTERNAL_H
 #include "cal_fit.h"
 
 /* Step that keeps a repaired falling curve strictly falling (codes). */
 #define WDR_CAL_TIE_STEP 1e-5
-
-/* cal_bad.c: median of the finite values among n (scratch holds n floats). */
-double wdr_cal_median_of(const float *v, long n, float *scratch);
-
-/* cal_fit.c */
-int wdr_cal_is_curve_model(int model);
 
 /* cal_residual.c: what an LSQ or POLYMAP residual (rms, in ln x) is judged against. */
 typedef struct wdr_cal_residual_limit {
@@ -44,13 +38,14 @@ double wdr_cal_lsq_recover_u(const wdr_cal_result *res, const double *theta, dou
 int wdr_cal_falling_fit(const double *y, int n, const double *tol, const double *w, double *out);
 int wdr_cal_fit_spline_pixel(const double *y, const double *med, int n, const double *tol, const double *w,
                              double *par);
-/* Per level: the pair tolerances tol[k] (k-1, k) and weights 1/sd^2 for the falling fit. */
-void wdr_cal_level_tolerances(const wdr_cal_levels *lv, const wdr_cal_config *cfg, double *tol, double *w);
 double wdr_cal_spline_recover(const wdr_cal_result *res, const double *par, double y);
 
 /* cal_nominal.c */
 double wdr_nominal_invert_lx(const wdr_nominal *n, double z);
 int wdr_nominal_build_inverse_table(wdr_nominal *n);
+
+/* cal_fit_nominal.c */
+int wdr_cal_is_curve_model(int model);
 int wdr_cal_fit_nominal(const wdr_cal_levels *lv, wdr_cal_result *res, const double *med, char *err, int errlen);
 
 #endif

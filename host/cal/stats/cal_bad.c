@@ -1,5 +1,5 @@
 /* Bad pixels from the calibration frames, one kind each (saturated, stuck, dead, hot); array medians. */
-#include "cal_fit_internal.h"
+#include "cal_stats.h"
 #include "wdr_err.h"
 #include <math.h>
 #include <stdio.h>
@@ -157,11 +157,11 @@ const char *wdr_cal_flag_name(int bit)
     return bit >= 0 && bit < WDR_CAL_FLAG_KINDS ? names[bit] : "?";
 }
 
-const char *wdr_cal_flag_counts_text(const wdr_cal_result *res, char *buf, size_t cap)
+const char *wdr_cal_flag_counts_text(const long *n_flag, char *buf, size_t cap)
 {
     size_t n = 0;
     buf[0] = 0;
     for (int b = 0; b < WDR_CAL_FLAG_KINDS && n < cap; b++)
-        n += (size_t)snprintf(buf + n, cap - n, "%s%s %ld", b ? ", " : "", wdr_cal_flag_name(b), res->n_flag[b]);
+        n += (size_t)snprintf(buf + n, cap - n, "%s%s %ld", b ? ", " : "", wdr_cal_flag_name(b), n_flag[b]);
     return buf;
 }

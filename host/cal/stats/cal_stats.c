@@ -1,6 +1,6 @@
 /* Noise-aware statistics: the temporal noise a calibration measured on its own frames decides
  * what counts as a tie, a reversal or a spacing between levels (never a fixed code count). */
-#include "cal_fit_internal.h"
+#include "cal_stats.h"
 #include "wdr_err.h"
 #include <math.h>
 #include <string.h>
