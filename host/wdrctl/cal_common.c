@@ -301,7 +301,7 @@ static int probe_given(const cal_opts *o, const wdr_cal_source *src, cal_run *r,
 /* Currents as given (--currents, --levels-file), or chosen from a probe of the source. */
 int cal_plan_currents(const cal_opts *o, const wdr_cal_source *src, cal_run *r, int n_cur)
 {
-    double amps[WDR_CAL_MAX_LEVELS];
+    double amps[WDR_CAL_MAX_LEVELS] = {0};
     int n = 0, rc = EX_OK;
     if (o->currents)
         rc = parse_current_list(o->currents, "--currents", amps, &n);
@@ -309,6 +309,11 @@ int cal_plan_currents(const cal_opts *o, const wdr_cal_source *src, cal_run *r, 
         rc = read_levels_file(o->levels_file, amps, &n);
     if (rc != EX_OK)
         return rc;
+    /* a paper model that cannot serve the operator's designed response is refused before any
+     * frame is taken (issue 19): the user spends neither the probe nor the calibration on it */
+    char why[1024];
+    if (wdr_cal_design_check(r->cfg.design, &r->cfg, n_cur, amps, n, MIN_SLOPE_CODES, why, sizeof why))
+        return wdrctl_fail(EX_DATAERR, "calibrate: %s", why);
     if (n) {
         r->choice.n = 0;
         if (r->cfg.use_dark_ref)

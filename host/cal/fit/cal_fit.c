@@ -220,6 +220,7 @@ int wdr_cal_fit_array(const wdr_cal_levels *lv, const wdr_cal_config *cfg, wdr_c
     double med[WDR_CAL_MAX_LEVELS];
     if ((rc = wdr_cal_level_medians(lv, res->flags, med)) || (rc = wdr_cal_fit_nominal(lv, res, med, err, errlen)))
         return rc;
+    res->m_avg = lv->m_avg;
     fit_all_pixels(lv, res, med);
     count_flags(res);
     res->code_noise = level_code_noise(lv, cfg);

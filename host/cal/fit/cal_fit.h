@@ -59,6 +59,7 @@ typedef struct wdr_cal_result {
     long n_status[WDR_FIT_COUNT];
     long n_bad;
     int saturated_levels; /* levels where the array median sits at a rail */
+    int m_avg;            /* frames the levels averaged (0: not measured); the paper fits judge a dark reading by one frame's noise */
     double code_noise;    /* rms uncertainty of a level's code used by the tables' fits (cfg.code_noise
                              or its auto value) */
 } wdr_cal_result;

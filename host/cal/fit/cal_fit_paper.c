@@ -7,7 +7,10 @@
 #include <string.h>
 
 /* The POLYMAP map's input variable: raw codes onto [-1, 1], the same as the table header's. */
-double wdr_cal_poly_u(const wdr_cal_result *res, double y) { return 2 * y / res->cfg.raw_max - 1; }
+double wdr_cal_poly_u(const wdr_cal_result *res, double y)
+{
+    return 2 * y / res->cfg.raw_max - 1;
+}
 
 double wdr_cal_poly_eval(const double *c, int n, double u)
 {
@@ -28,6 +31,50 @@ void wdr_cal_paper_weights(const wdr_cal_levels *lv, double *w)
     }
 }
 
+/* The light levels' fit with the array's dark offset (m->d, the nominal pixel's) kept. */
+static void simple3_light_fit(const double *u, const double *y, const double *w, int n, wdr_simple3 *m)
+{
+    double d = m->d;
+    wdr_simple3_fit_lsq(u, y, w, n, m);
+    m->d = d;
+}
+
+static void complex4_light_fit(const double *u, const double *y, const double *w, int n, wdr_complex4 *m)
+{
+    double d = m->d;
+    wdr_complex4_fit_lsq(u, y, w, n, m);
+    m->d = d;
+}
+
+/* A pixel's own dark shift fails (its dark reading at or below its dimmest level, or further above
+ * it than the model allows) but the reading agrees, within the tolerance of the dark-first pair,
+ * with what the array's dark offset predicts from its light levels (one frame's noise): at 1e-14 A the reading is only
+ * ~3 codes above the dimmest level, so noise (two probe frames: 2-8 % of a healthy chip; 64 frames:
+ * 1 %) decides the failure, not the pixel. Such a pixel takes the array's offset. */
+static int dark_within_noise(const wdr_cal_result *res, const double *u, const double *y, const double *w, int n,
+                             double y0, const double *tol)
+{
+    if (!tol || res->nominal.model != res->model)
+        return 0; /* no tolerance, or the nominal pixel itself is being fitted */
+    double y_exp, d;
+    int st;
+    if (res->model == WDR_MODEL_SIMPLE3) {
+        wdr_simple3 m = {.x_scale = res->x_scale};
+        d = res->nominal.s3.d;
+        st = wdr_simple3_fit_lsq(u, y, w, n, &m);
+        y_exp = wdr_simple3_eval(&m, d);
+    } else {
+        wdr_complex4 m = {.x_scale = res->x_scale};
+        d = res->nominal.c4.d;
+        st = wdr_complex4_fit_lsq(u, y, w, n, &m);
+        y_exp = wdr_complex4_eval(&m, d);
+    }
+    /* one frame's tolerance (the pair's, times sqrt M): the same on the two-frame probe that
+     * chose the levels as on the calibration's averaged frames */
+    double tc = res->cfg.tie_codes, one_frame = tc + (tol[1] - tc) * sqrt(res->m_avg > 1 ? res->m_avg : 1);
+    return !st && d > -u[0] && fabs(y0 - y_exp) <= one_frame;
+}
+
 /* Fit one pixel with a paper model; u[], y[] (and w[], may be NULL) hold its n levels, ordered,
  * the dark reference first when cfg.use_dark_ref. With the paper's count (3 or 4 light levels)
  * the exact fit; with more, least squares on the code residuals. tol (may be NULL): per pair of
@@ -44,11 +91,17 @@ int wdr_cal_fit_paper_pixel(const wdr_cal_result *res, const double *u, const do
     if (res->model == WDR_MODEL_SIMPLE3) {
         wdr_simple3 m = {.x_scale = res->x_scale};
         st = ref ? wdr_simple3_fit_lsq_dark(ul, yl, wl, n - 1, u[0], y[0], &m) : wdr_simple3_fit_lsq(ul, yl, wl, n, &m);
+        if (ref && (st == WDR_FIT_REVERSED || st == WDR_FIT_DARK) &&
+            dark_within_noise(res, ul, yl, wl, n - 1, y[0], tol))
+            st = WDR_FIT_OK, m = res->nominal.s3, simple3_light_fit(ul, yl, wl, n - 1, &m);
         par[0] = m.a, par[1] = m.b, par[2] = m.c, par[3] = m.d;
     } else {
         wdr_complex4 m = {.x_scale = res->x_scale};
         st = ref ? wdr_complex4_fit_lsq_dark(ul, yl, wl, n - 1, u[0], y[0], &m)
                  : wdr_complex4_fit_lsq(ul, yl, wl, n, &m);
+        if (ref && (st == WDR_FIT_REVERSED || st == WDR_FIT_DARK) &&
+            dark_within_noise(res, ul, yl, wl, n - 1, y[0], tol))
+            st = WDR_FIT_OK, m = res->nominal.c4, complex4_light_fit(ul, yl, wl, n - 1, &m);
         par[0] = m.p, par[1] = m.q, par[2] = m.r, par[3] = m.s, par[4] = m.d;
     }
     return st;

@@ -10,10 +10,15 @@
 
 const char *wdr_fit_status_name(int status)
 {
-    static const char *const names[WDR_FIT_COUNT] = {
-        "ok", "non-finite input", "flat response (zero slope)", "reversed slope",
-        "calibration currents too close", "ill-conditioned system", "pole inside the range",
-        "residual too large"};
+    static const char *const names[WDR_FIT_COUNT] = {"ok",
+                                                     "non-finite input",
+                                                     "flat response (zero slope)",
+                                                     "reversed slope",
+                                                     "calibration currents too close",
+                                                     "ill-conditioned system",
+                                                     "pole inside the range",
+                                                     "residual too large",
+                                                     "dark reference off the model"};
     return status >= 0 && status < WDR_FIT_COUNT ? names[status] : "unknown";
 }
 
@@ -283,10 +288,14 @@ int wdr_simple3_invert(const wdr_simple3 *m, double y, double u_cap, double *u)
 static int simple3_shift_to_dark(wdr_simple3 *m, double u_first, double y_first, double u0, double y0)
 {
     double t0;
-    if (!isfinite(y0) || y0 <= y_first || wdr_simple3_invert(m, y0, 1e6, &t0))
+    if (!isfinite(y0) || y0 <= y_first)
         return WDR_FIT_REVERSED; /* the dark reference is not darker than the first current */
+    if (wdr_simple3_invert(m, y0, 1e6, &t0))
+        return WDR_FIT_DARK;
     m->d = t0 - u0;
-    return isfinite(m->d) && m->d > -u_first ? WDR_FIT_OK : WDR_FIT_ILL_COND;
+    /* the shift must leave the first light level at a positive model current: a model that
+     * cannot bend to the dark end puts the dark reading further out than that (Drago) */
+    return isfinite(m->d) && m->d > -u_first ? WDR_FIT_OK : WDR_FIT_DARK;
 }
 
 int wdr_simple3_fit_dark(const double u[3], const double y[3], double u0, double y0, wdr_simple3 *m)
@@ -386,10 +395,12 @@ static int complex4_shift_to_dark(wdr_complex4 *m, double u_first, double y_firs
 {
     double t0;
     int clamped;
-    if (!isfinite(y0) || y0 <= y_first || wdr_complex4_invert(m, y0, 1e6, &t0, &clamped) || clamped)
+    if (!isfinite(y0) || y0 <= y_first)
         return WDR_FIT_REVERSED;
+    if (wdr_complex4_invert(m, y0, 1e6, &t0, &clamped) || clamped)
+        return WDR_FIT_DARK; /* the dark reading lies above the model's highest response */
     m->d = t0 - u0;
-    return isfinite(m->d) && m->d > -u_first ? WDR_FIT_OK : WDR_FIT_ILL_COND;
+    return isfinite(m->d) && m->d > -u_first ? WDR_FIT_OK : WDR_FIT_DARK;
 }
 
 int wdr_complex4_fit_dark(const double u[4], const double y[4], double u0, double y0, wdr_complex4 *m)
@@ -558,6 +569,44 @@ static int complex4_start(const double *u, const double *y, const double *w, int
     return wdr_lsq_solve(a, b, w, n, 4, th, &rcond);
 }
 
+/* complex4 with R held: th = (P, Q, S), f = (P + Q t - R t^2) / (1 + S t). R rides beside the
+ * solver's parameters (per thread: fits may run in parallel). */
+static _Thread_local double held_r;
+
+static int complex4_held_r_gn_eval(const double *th, double t, double *f, double *grad)
+{
+    double den = 1 + th[2] * t;
+    if (!(den > 0))
+        return 0;
+    *f = (th[0] + th[1] * t - held_r * t * t) / den;
+    grad[0] = 1 / den;
+    grad[1] = t / den;
+    grad[2] = -t * *f / den;
+    return 1;
+}
+
+static int complex4_falls_at_points(const wdr_complex4 *m, const double *u, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (!falling_at(m, u[i], wdr_complex4_eval(m, u[i])))
+            return 0;
+    return 1;
+}
+
+/* (P, Q, S) by least squares with R held; 1 when the curve falls at every point. */
+static int complex4_fit_held_r(const double *u, const double *y, const double *w, int n, double r, double *th3,
+                               wdr_complex4 *m)
+{
+    double rcond = 0;
+    held_r = r;
+    if (gauss_newton(complex4_held_r_gn_eval, 3, u, y, w, n, th3, &rcond))
+        return 0;
+    *m = (wdr_complex4){th3[0], th3[1], r, th3[2], 0, m->x_scale, rcond};
+    return complex4_falls_at_points(m, u, n);
+}
+
+#define HELD_R_BISECTIONS 12
+
 int wdr_complex4_fit_lsq(const double *u, const double *y, const double *w, int n, wdr_complex4 *m)
 {
     if (n == 4)
@@ -567,9 +616,30 @@ int wdr_complex4_fit_lsq(const double *u, const double *y, const double *w, int 
     if (st || (st = complex4_start(u, y, w, n, th)) || (st = gauss_newton(complex4_gn_eval, 4, u, y, w, n, th, &rcond)))
         return st;
     *m = (wdr_complex4){th[0], th[1], th[2], th[3], 0, m->x_scale, rcond};
-    for (int i = 0; i < n; i++)
-        if (!falling_at(m, u[i], wdr_complex4_eval(m, u[i])))
-            return WDR_FIT_REVERSED;
+    if (complex4_falls_at_points(m, u, n))
+        return WDR_FIT_OK;
+    /* A curve that turns up inside the span is not a pixel's response: it comes from R < 0 fitted
+     * to the rounding of a flat bright end (Reinhard's asymptote at 12 bits: a quarter of a
+     * healthy chip was flagged "reversed"). R < 0 bends the curve up, R = 0 (a Moebius curve)
+     * always falls: the least squares among falling curves is at the R between, nearest the free
+     * fit's, where the curve just stops turning; found by bisection (R = 0 alone cost the middle
+     * of the range twice its 12-bit floor, tests/calibration/test_cal_endslope.c). */
+    if (!(th[2] < 0))
+        return WDR_FIT_REVERSED;
+    wdr_complex4 good = *m, trial = *m;
+    double th3[3] = {th[0], th[1], th[3]}, good3[3], bad_r = th[2], good_r = 0;
+    if (!complex4_fit_held_r(u, y, w, n, 0, th3, &good))
+        return WDR_FIT_REVERSED;
+    memcpy(good3, th3, sizeof good3);
+    for (int k = 0; k < HELD_R_BISECTIONS; k++) {
+        double r = 0.5 * (bad_r + good_r), t3[3] = {good3[0], good3[1], good3[2]};
+        if (complex4_fit_held_r(u, y, w, n, r, t3, &trial)) {
+            good = trial, good_r = r;
+            memcpy(good3, t3, sizeof good3);
+        } else
+            bad_r = r;
+    }
+    *m = good;
     return WDR_FIT_OK;
 }
 

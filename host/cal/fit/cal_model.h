@@ -8,13 +8,15 @@
 /* Why a pixel's fit or inversion failed (0 = fine). Stored in host reports, not in the table. */
 enum wdr_fit_status {
     WDR_FIT_OK = 0,
-    WDR_FIT_NONFINITE,     /* NaN or Inf in the input */
-    WDR_FIT_FLAT,          /* two responses equal: zero slope, no information */
-    WDR_FIT_REVERSED,      /* response not monotone in the expected direction */
-    WDR_FIT_CLOSE_CURRENTS,/* two calibration currents (nearly) equal */
-    WDR_FIT_ILL_COND,      /* the linear system is too ill-conditioned to trust */
-    WDR_FIT_POLE,          /* the fitted curve has a pole inside the calibrated range */
-    WDR_FIT_RESIDUAL,      /* fit residual far above what the model should give */
+    WDR_FIT_NONFINITE,      /* NaN or Inf in the input */
+    WDR_FIT_FLAT,           /* two responses equal: zero slope, no information */
+    WDR_FIT_REVERSED,       /* response not monotone in the expected direction */
+    WDR_FIT_CLOSE_CURRENTS, /* two calibration currents (nearly) equal */
+    WDR_FIT_ILL_COND,       /* the linear system is too ill-conditioned to trust */
+    WDR_FIT_POLE,           /* the fitted curve has a pole inside the calibrated range */
+    WDR_FIT_RESIDUAL,       /* fit residual far above what the model should give */
+    WDR_FIT_DARK,           /* the dark reference is off the model: inverted, it puts the first light
+                               level at or below zero current (a paper model's dark shift, eq. 20) */
     WDR_FIT_COUNT
 };
 const char *wdr_fit_status_name(int status);
@@ -83,7 +85,7 @@ double wdr_simple3_slope(const wdr_simple3 *m, double u);
 typedef struct wdr_complex4 {
     double p, q, r, s, d; /* u = x / x_scale */
     double x_scale;
-    double rcond;         /* condition estimate of the fit */
+    double rcond; /* condition estimate of the fit */
 } wdr_complex4;
 
 /* Solve eq. 24 for four points (pivoted LU on equilibrated columns, never an inverse).

@@ -1,6 +1,8 @@
 /* Calibration current selection and evaluation against a frame source. */
 #include "cal_select.h"
+#include "cal_design.h"
 #include "wdr_err.h"
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,8 +39,7 @@ static int sample_grid(const wdr_cal_levels *g, int want, wdr_cal_levels *s)
 /* Neighbouring chosen levels must differ in the array's response by more than the ramp can
  * resolve (one DAC step) plus spacing_sigmas sd of their difference: closer, their order is noise
  * and a healthy pixel's responses there reverse. med: the sample's median per grid level. */
-static int spaced_enough(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *idx,
-                         int n)
+static int spaced_enough(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *idx, int n)
 {
     for (int j = 1; j < n; j++) {
         if (idx[j - 1] < 0)
@@ -63,55 +64,116 @@ static double fpn_only_pct(const wdr_cal_levels *s, const wdr_cal_result *res, i
     return v > 0 ? sqrt(v) : 0;
 }
 
-/* Worst sd over the levels in range for one candidate set; INFINITY when it cannot be fitted.
- * *left_out: the sampled pixels its fit flagged, which the worst leaves out. */
-static double judge(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *idx, int n,
-                    const int *eval, int n_eval, double *worst_at, long *left_out)
+static int is_paper_model(int model)
+{
+    return model == WDR_MODEL_SIMPLE3 || model == WDR_MODEL_COMPLEX4;
+}
+
+/* What one candidate set did on the sample: its worst error, and the pixels the model left unfit. */
+typedef struct verdict {
+    double worst, at;
+    long px, unfit, by_status[WDR_FIT_COUNT];
+    long bad; /* flagged by the fit (defects included): what worst leaves out */
+} verdict;
+
+/* Pixels the fit left unfit, by reason (the defect tests' flags are the chip's, not the model's). */
+static void count_unfit(const wdr_cal_result *res, verdict *v)
+{
+    long np = (long)res->width * res->height;
+    v->px = np, v->unfit = 0;
+    memset(v->by_status, 0, sizeof v->by_status);
+    for (long i = 0; i < np; i++)
+        if (res->status[i]) {
+            v->unfit++;
+            v->by_status[res->status[i]]++;
+        }
+}
+
+/* The curve models reject a set that leaves a quarter of the sample bad; the paper models rank
+ * every set by what it leaves unfit (better), so their worst is judged on the pixels fitted. */
+static int judge_worst(const wdr_cal_levels *s, const wdr_cal_config *cfg, const wdr_cal_result *res, const int *idx,
+                       int n, const int *eval, int n_eval, verdict *v)
+{
+    if (!is_paper_model(cfg->model) && !(res->n_bad * 4 < (long)s->width))
+        return 0;
+    if (res->n_bad >= (long)s->width)
+        return 0;
+    v->worst = 0;
+    for (int e = 0; e < n_eval && v->worst < INFINITY; e++) {
+        wdr_fpn_stats st;
+        int k = eval[e], used = 0;
+        for (int j = 0; j < n; j++)
+            used |= idx[j] == k;
+        if (used)
+            continue; /* judged where the fit did not look: an interpolating model is exact there */
+        wdr_fpn_frame(res, NULL, WDR_PATH_MODEL, s->frames + (long)k * s->width, s->amps[k], res->flags, NULL, &st);
+        double x = st.nonfinite || !st.used ? INFINITY : fpn_only_pct(s, res, k, st.sd_pct);
+        if (x > v->worst)
+            v->worst = x, v->at = s->amps[k];
+    }
+    return 1;
+}
+
+/* Judge one candidate set on the sample: worst sd over the levels in range (INFINITY when it
+ * cannot be fitted) and the unfit pixels. */
+static void judge(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *idx, int n,
+                  const int *eval, int n_eval, verdict *v, char *err, int errlen)
 {
     wdr_cal_levels lv;
     wdr_cal_result res;
-    char err[160];
-    double worst = INFINITY;
+    memset(v, 0, sizeof *v);
+    v->worst = INFINITY;
+    v->unfit = LONG_MAX;
     if (!spaced_enough(s, cfg, med, idx, n) || wdr_cal_levels_subset(s, idx, n, &lv))
-        return INFINITY;
+        return;
     lv.dark = s->dark;
-    if (!wdr_cal_fit_array(&lv, cfg, &res, err, sizeof err) && res.n_bad * 4 < (long)s->width) {
-        worst = 0;
-        *left_out = res.n_bad;
-        for (int e = 0; e < n_eval && worst < INFINITY; e++) {
-            wdr_fpn_stats st;
-            int k = eval[e], used = 0;
-            for (int j = 0; j < n; j++)
-                used |= idx[j] == k;
-            if (used)
-                continue; /* judged where the fit did not look: an interpolating model is exact there */
-            wdr_fpn_frame(&res, NULL, WDR_PATH_MODEL, s->frames + (long)k * s->width, s->amps[k], res.flags, NULL,
-                          &st);
-            double v = st.nonfinite || !st.used ? INFINITY : fpn_only_pct(s, &res, k, st.sd_pct);
-            if (v > worst)
-                worst = v, *worst_at = s->amps[k];
-        }
+    if (!wdr_cal_fit_array(&lv, cfg, &res, err, errlen)) {
+        count_unfit(&res, v);
+        v->bad = res.n_bad;
+        if (!judge_worst(s, cfg, &res, idx, n, eval, n_eval, v))
+            v->worst = INFINITY;
     }
     wdr_cal_result_free(&res);
     lv.dark = NULL;
     wdr_cal_levels_free(&lv);
-    return worst;
 }
 
-static void keep_if_better(wdr_cal_choice *best, const wdr_cal_levels *s, const int *idx, int n, double worst,
-                           double at, long left_out)
+/* Paper models: fewer unfit pixels first, then the lower worst error; curve models: the worst. */
+static int ranks_before(const wdr_cal_config *cfg, const verdict *a, const verdict *b)
 {
-    best->tried++;
-    if (!(worst < best->worst_pct))
+    if (is_paper_model(cfg->model) && a->unfit != b->unfit)
+        return a->unfit < b->unfit;
+    return a->worst < b->worst;
+}
+
+/* The best candidate sets so far, best first (the paper models check them on the whole probe). */
+#define N_RANKED 8
+typedef struct ranked {
+    int count, n[N_RANKED], idx[N_RANKED][WDR_CAL_MAX_LEVELS];
+    verdict v[N_RANKED];
+    long tried;
+    char fit_err[160]; /* the last array fit that failed outright */
+} ranked;
+
+static void consider(ranked *r, const wdr_cal_config *cfg, const int *idx, int n, const verdict *v)
+{
+    r->tried++;
+    if (!isfinite(v->worst) && v->unfit == LONG_MAX)
+        return; /* not fitted at all */
+    int at = r->count;
+    while (at > 0 && ranks_before(cfg, v, &r->v[at - 1]))
+        at--;
+    if (at >= N_RANKED)
         return;
-    best->worst_pct = worst;
-    best->worst_at = at;
-    best->judged = s->width, best->left_out = left_out;
-    best->n = n;
-    for (int k = 0; k < n; k++) {
-        best->idx[k] = idx[k];
-        best->amps[k] = idx[k] < 0 ? 0 : s->amps[idx[k]];
+    int last = r->count < N_RANKED ? r->count : N_RANKED - 1;
+    for (int j = last; j > at; j--) {
+        r->n[j] = r->n[j - 1], r->v[j] = r->v[j - 1];
+        memcpy(r->idx[j], r->idx[j - 1], sizeof r->idx[j]);
     }
+    r->n[at] = n, r->v[at] = *v;
+    memcpy(r->idx[at], idx, sizeof(int) * (size_t)n);
+    if (r->count < N_RANKED)
+        r->count++;
 }
 
 static int levels_in_range(const wdr_cal_levels *g, double lo, double hi, int *out)
@@ -133,7 +195,7 @@ static long binomial(int n, int k)
 
 /* Every k-subset of cand (lexicographic), the dark reference in front when used. */
 static void search_subsets(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *cand,
-                           int nc, int k, const int *eval, int n_eval, wdr_cal_choice *best)
+                           int nc, int k, const int *eval, int n_eval, ranked *best)
 {
     int pos[WDR_CAL_MAX_LEVELS], idx[WDR_CAL_MAX_LEVELS], ref = cfg->use_dark_ref ? 1 : 0;
     for (int j = 0; j < k; j++)
@@ -142,10 +204,9 @@ static void search_subsets(const wdr_cal_levels *s, const wdr_cal_config *cfg, c
         idx[0] = -1;
         for (int j = 0; j < k; j++)
             idx[ref + j] = cand[pos[j]];
-        double at = 0;
-        long left_out = 0;
-        double w = judge(s, cfg, med, idx, k + ref, eval, n_eval, &at, &left_out);
-        keep_if_better(best, s, idx, k + ref, w, at, left_out);
+        verdict v;
+        judge(s, cfg, med, idx, k + ref, eval, n_eval, &v, best->fit_err, sizeof best->fit_err);
+        consider(best, cfg, idx, k + ref, &v);
         int j = k - 1;
         while (j >= 0 && pos[j] == nc - k + j)
             j--;
@@ -203,7 +264,7 @@ static int prune_close(const wdr_cal_levels *s, const wdr_cal_config *cfg, const
 }
 
 static void search_warped(const wdr_cal_levels *s, const wdr_cal_config *cfg, const double *med, const int *cand,
-                          int nc, int n, const int *eval, int n_eval, wdr_cal_choice *best)
+                          int nc, int n, const int *eval, int n_eval, ranked *best)
 {
     static const double gammas[] = {0, 0.6, 0.7, 0.8, 0.9, 1.0, 1.12, 1.25, 1.4, 1.6};
     int ref = cfg->use_dark_ref ? 1 : 0; /* the dark reference in front (paper models) */
@@ -213,10 +274,9 @@ static void search_warped(const wdr_cal_levels *s, const wdr_cal_config *cfg, co
         if (!warped_set(s, cand, nc, n, gammas[g], idx + ref))
             continue;
         int m = prune_close(s, cfg, med, idx, n + ref);
-        double at = 0;
-        long left_out = 0;
-        double w = judge(s, cfg, med, idx, m, eval, n_eval, &at, &left_out);
-        keep_if_better(best, s, idx, m, w, at, left_out);
+        verdict v;
+        judge(s, cfg, med, idx, m, eval, n_eval, &v, best->fit_err, sizeof best->fit_err);
+        consider(best, cfg, idx, m, &v);
     }
 }
 
@@ -246,6 +306,106 @@ static int thin_candidates(int *cand, int nc, int k)
     return nc;
 }
 
+static void fill_choice(wdr_cal_choice *out, const wdr_cal_levels *s, const ranked *r, int j)
+{
+    out->worst_pct = r->v[j].worst, out->worst_at = r->v[j].at, out->n = r->n[j];
+    for (int k = 0; k < r->n[j]; k++) {
+        out->idx[k] = r->idx[j][k];
+        out->amps[k] = r->idx[j][k] < 0 ? 0 : s->amps[r->idx[j][k]];
+    }
+    out->sampled = r->v[j].px, out->sampled_unfit = r->v[j].unfit;
+    out->judged = r->v[j].px, out->left_out = r->v[j].bad;
+    memcpy(out->by_status, r->v[j].by_status, sizeof out->by_status);
+}
+
+/* Why a status leaves a healthy pixel unfit, in the user's terms. */
+static const char *unfit_cause(int status)
+{
+    switch (status) {
+    case WDR_FIT_REVERSED:
+        return "the least-squares curve turns up inside the range: the response bends more than the model can";
+    case WDR_FIT_DARK:
+        return "the dark reading, put on the model, lands at or below zero current: the model cannot bend to this "
+               "response's dark end";
+    case WDR_FIT_ILL_COND:
+        return "the model's linear system is near singular for these levels (reciprocal condition below 1e-13)";
+    case WDR_FIT_POLE: return "the fitted curve has its pole inside the calibrated range";
+    case WDR_FIT_FLAT: return "neighbouring levels give the same response";
+    default: return "the fit fails";
+    }
+}
+
+/* "simple3 cannot serve this response ...: the best of N sets (A, B, .. A) leaves u of n pixels
+ * unfit (ppm): reason count, ..; cause" */
+static int refuse(const wdr_cal_config *cfg, const wdr_cal_levels *s, const ranked *r, int j, const verdict *v,
+                  const char *where, double x_lo, double x_hi, char *err, int errlen)
+{
+    char set[160] = "", why[256] = "";
+    int at = 0, top = 0;
+    for (int k = 0; k < r->n[j] && at < (int)sizeof set; k++)
+        at += snprintf(set + at, sizeof set - (size_t)at, "%s%.3g", k ? " " : "",
+                       r->idx[j][k] < 0 ? 0 : s->amps[r->idx[j][k]]);
+    at = 0;
+    for (int st = 1; st < WDR_FIT_COUNT; st++)
+        if (v->by_status[st]) {
+            if (at < (int)sizeof why)
+                at += snprintf(why + at, sizeof why - (size_t)at, "%s%s %ld", at ? ", " : "", wdr_fit_status_name(st),
+                               v->by_status[st]);
+            if (v->by_status[st] > v->by_status[top])
+                top = st;
+        }
+    snprintf(err, (size_t)errlen,
+             "%s cannot serve this response over %.3g..%.3g A: the best of %ld sets of %d currents (%s A, 0 the dark "
+             "reference) leaves %ld of %ld %s pixels unfit (%.0f ppm, limit %.0f): %s; %s",
+             cfg->model == WDR_MODEL_SIMPLE3 ? "simple3" : "complex4", x_lo, x_hi, r->tried, r->n[j] - 1, set, v->unfit,
+             v->px, where, 1e6 * (double)v->unfit / (double)(v->px > 0 ? v->px : 1), WDR_CAL_SELECT_MAX_UNFIT_PPM, why,
+             unfit_cause(top));
+    return WDR_E_NUMERIC;
+}
+
+/* The paper models: the ranked sets that left no sampled pixel unfit are fitted on the whole probe,
+ * best first; the first within the limit is the choice, else the refusal names the closest. */
+static int choose_paper_set(const wdr_cal_levels *grid, const wdr_cal_levels *s, const wdr_cal_config *cfg,
+                            const ranked *r, double x_lo, double x_hi, wdr_cal_choice *out, char *err, int errlen)
+{
+    if (r->v[0].unfit > 0)
+        return refuse(cfg, s, r, 0, &r->v[0], "sampled", x_lo, x_hi, err, errlen);
+    long np = (long)grid->width * grid->height, limit = (long)floor(WDR_CAL_SELECT_MAX_UNFIT_PPM * (double)np / 1e6);
+    verdict closest = {.unfit = LONG_MAX};
+    int closest_j = 0;
+    for (int j = 0; j < r->count && r->v[j].unfit == 0; j++) {
+        wdr_cal_levels lv;
+        wdr_cal_result res;
+        verdict pv = {0};
+        if (wdr_cal_levels_subset(grid, r->idx[j], r->n[j], &lv))
+            return WDR_E_NOMEM;
+        lv.dark = grid->dark;
+        int rc = wdr_cal_fit_array(&lv, cfg, &res, err, errlen);
+        if (!rc)
+            count_unfit(&res, &pv);
+        wdr_cal_result_free(&res);
+        lv.dark = NULL;
+        wdr_cal_levels_free(&lv);
+        if (rc)
+            continue;
+        if (pv.unfit < closest.unfit)
+            closest = pv, closest_j = j;
+        if (pv.unfit <= limit)
+            break;
+    }
+    if (closest.unfit == LONG_MAX) {
+        snprintf(err, (size_t)errlen, "no set of %d currents in %.3g..%.3g A could be fitted on the whole probe",
+                 r->n[0] - 1, x_lo, x_hi);
+        return WDR_E_NUMERIC;
+    }
+    if (closest.unfit > limit)
+        return refuse(cfg, s, r, closest_j, &closest, "probed", x_lo, x_hi, err, errlen);
+    fill_choice(out, s, r, closest_j);
+    out->probe_px = closest.px, out->probe_unfit = closest.unfit;
+    memcpy(out->by_status, closest.by_status, sizeof out->by_status);
+    return WDR_OK;
+}
+
 int wdr_cal_select_currents(const wdr_cal_levels *grid, const wdr_cal_config *cfg, int n_currents, double x_lo,
                             double x_hi, int sample_pixels, wdr_cal_choice *out, char *err, int errlen)
 {
@@ -259,7 +419,8 @@ int wdr_cal_select_currents(const wdr_cal_levels *grid, const wdr_cal_config *cf
         return WDR_E_INVAL;
     }
     wdr_cal_levels s;
-    int rc = sample_grid(grid, sample_pixels, &s);
+    ranked *best = calloc(1, sizeof *best);
+    int rc = best ? sample_grid(grid, sample_pixels, &s) : WDR_E_NOMEM;
     double med[WDR_CAL_MAX_LEVELS];
     if (!rc)
         rc = sample_medians(&s, med);
@@ -268,15 +429,22 @@ int wdr_cal_select_currents(const wdr_cal_levels *grid, const wdr_cal_config *cf
          * fits through more, as the curve models, sets that span the range (a subset search would
          * find sets whose extrapolation clamps, which judging leaves out, and cost binomially) */
         if (n_currents == (cfg->model == WDR_MODEL_SIMPLE3 ? 3 : cfg->model == WDR_MODEL_COMPLEX4 ? 4 : -1))
-            search_subsets(&s, cfg, med, cand, thin_candidates(cand, nc, n_currents), n_currents, eval, n_eval, out);
+            search_subsets(&s, cfg, med, cand, thin_candidates(cand, nc, n_currents), n_currents, eval, n_eval, best);
         else
-            search_warped(&s, cfg, med, cand, nc, n_currents, eval, n_eval, out);
+            search_warped(&s, cfg, med, cand, nc, n_currents, eval, n_eval, best);
+        if (best->count == 0 || (!is_paper_model(cfg->model) && !isfinite(best->v[0].worst))) {
+            snprintf(err, (size_t)errlen, "no set of %d currents in %.3g..%.3g A could be fitted%s%s", n_currents, x_lo,
+                     x_hi, best->fit_err[0] ? ": " : "", best->fit_err);
+            rc = WDR_E_NUMERIC;
+        } else if (is_paper_model(cfg->model))
+            rc = choose_paper_set(grid, &s, cfg, best, x_lo, x_hi, out, err, errlen);
+        else
+            fill_choice(out, &s, best, 0);
+        out->tried = best->tried;
     }
-    wdr_cal_levels_free(&s);
-    if (!rc && !isfinite(out->worst_pct)) {
-        snprintf(err, (size_t)errlen, "no set of %d currents in %.3g..%.3g A could be fitted", n_currents, x_lo, x_hi);
-        rc = WDR_E_NUMERIC;
-    }
+    if (best)
+        wdr_cal_levels_free(&s);
+    free(best);
     return rc;
 }
 
@@ -336,8 +504,8 @@ int wdr_cal_informative_range(const wdr_cal_levels *grid, double min_slope, doub
     return WDR_OK;
 }
 
-int wdr_cal_evaluate(const wdr_cal_result *res, const wdr_cal_view *tab, const wdr_cal_source *src,
-                     const double *amps, int n, wdr_fpn_stats *raw, wdr_fpn_stats *model, wdr_fpn_stats *table)
+int wdr_cal_evaluate(const wdr_cal_result *res, const wdr_cal_view *tab, const wdr_cal_source *src, const double *amps,
+                     int n, wdr_fpn_stats *raw, wdr_fpn_stats *model, wdr_fpn_stats *table)
 {
     long np = (long)src->width * src->height;
     float *frame = malloc(sizeof(float) * (size_t)np);
@@ -356,5 +524,95 @@ int wdr_cal_evaluate(const wdr_cal_result *res, const wdr_cal_view *tab, const w
             rc = wdr_fpn_frame(res, tab, WDR_PATH_TABLE, frame, amps[k], flags, NULL, &table[k]);
     }
     free(frame);
+    return rc;
+}
+
+/* ---- can the model serve the design at all ---- */
+
+/* The design's codes (unrounded) on the board's grid, 6 levels per decade, or at the given levels;
+ * the design's dark reading as the dark frame: a one-pixel probe with no noise measured. */
+static int design_probe(const wdr_cal_design *d, const double *amps, int n_amps, wdr_cal_levels *g)
+{
+    memset(g, 0, sizeof *g);
+    g->width = g->height = 1;
+    if (n_amps > 0) {
+        g->n = n_amps < WDR_CAL_MAX_LEVELS ? n_amps : WDR_CAL_MAX_LEVELS;
+        memcpy(g->amps, amps, sizeof(double) * (size_t)g->n);
+    } else {
+        double lo = d->board.i_min_a, hi = d->board.i_max_a;
+        g->n = (int)lround(log10(hi / lo) * 6) + 1;
+        g->n = g->n < WDR_CAL_MAX_LEVELS ? g->n : WDR_CAL_MAX_LEVELS;
+        for (int k = 0; k < g->n; k++)
+            g->amps[k] = lo * pow(10, k / 6.0);
+    }
+    g->frames = malloc(sizeof(float) * (size_t)g->n);
+    g->dark = malloc(sizeof(float));
+    if (!g->frames || !g->dark)
+        return WDR_E_NOMEM;
+    for (int k = 0; k < g->n; k++)
+        g->frames[k] = (float)wdr_cal_design_code(d, g->amps[k]);
+    g->dark[0] = (float)wdr_cal_design_code(d, 0);
+    return WDR_OK;
+}
+
+/* The user's levels (and the dark reference) through the design's pixel. */
+static int design_fit_given(const wdr_cal_levels *g, const wdr_cal_config *cfg, char *err, int errlen)
+{
+    int idx[WDR_CAL_MAX_LEVELS + 1];
+    wdr_cal_levels lv;
+    wdr_cal_result res;
+    char e[256];
+    idx[0] = -1;
+    for (int k = 0; k < g->n && k < WDR_CAL_MAX_LEVELS - 1; k++)
+        idx[k + 1] = k;
+    int n = g->n + 1 < WDR_CAL_MAX_LEVELS ? g->n + 1 : WDR_CAL_MAX_LEVELS;
+    if (wdr_cal_levels_subset(g, idx, n, &lv))
+        return WDR_E_NOMEM;
+    lv.dark = g->dark;
+    int rc = wdr_cal_fit_array(&lv, cfg, &res, e, sizeof e);
+    if (!rc && res.status[0]) {
+        snprintf(e, sizeof e, "the model leaves it unfit through these levels: %s (%s)",
+                 wdr_fit_status_name(res.status[0]), unfit_cause(res.status[0]));
+        rc = WDR_E_NUMERIC;
+    }
+    if (rc && rc != WDR_E_NOMEM)
+        snprintf(err, (size_t)errlen, "known from the design (the board's mismatch-free pixel under this operator): %s",
+                 e);
+    wdr_cal_result_free(&res);
+    lv.dark = NULL;
+    wdr_cal_levels_free(&lv);
+    return rc ? WDR_E_NUMERIC : WDR_OK;
+}
+
+int wdr_cal_design_check(const wdr_cal_design *d, const wdr_cal_config *cfg, int n_currents, const double *amps,
+                         int n_amps, double min_slope, char *err, int errlen)
+{
+    if (!d || !is_paper_model(cfg->model))
+        return WDR_OK;
+    wdr_cal_levels g;
+    int rc = design_probe(d, amps, n_amps, &g);
+    char e[768];
+    if (!rc && n_amps > 0)
+        rc = design_fit_given(&g, cfg, err, errlen);
+    else if (!rc) {
+        double lo, hi;
+        wdr_cal_config c = *cfg;
+        wdr_cal_choice ch;
+        if (wdr_cal_informative_range(&g, min_slope, &lo, &hi)) {
+            snprintf(err, (size_t)errlen, "known from the design: the response is flat everywhere");
+            rc = WDR_E_NUMERIC;
+        } else {
+            c.range_lo = lo, c.range_hi = hi;
+            rc = wdr_cal_select_currents(&g, &c, n_currents, lo, hi, 1, &ch, e, sizeof e);
+            if (rc && rc != WDR_E_NOMEM) {
+                snprintf(err, (size_t)errlen,
+                         "known from the design (the board's mismatch-free pixel under this operator, before any "
+                         "frame): %s",
+                         e);
+                rc = WDR_E_NUMERIC;
+            }
+        }
+    }
+    wdr_cal_levels_free(&g);
     return rc;
 }
