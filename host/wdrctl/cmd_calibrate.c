@@ -31,24 +31,24 @@ static int prompt_level(double amps)
     return ch == EOF ? WDR_E_IO : WDR_OK;
 }
 
-/* The LUT file the board will image with, stored with the calibration margin. */
-static int upload_lut_with_margin(device_src *d, const char *path)
+/* The LUT file the board will image with, stored with the calibration margin this chip needs
+ * (sized from the board's own frames: cal_size_margin). */
+static int upload_lut_with_margin(device_src *d, const char *path, const wdr_cal_source *src,
+                                  const wdr_cal_design *design)
 {
     uint8_t *buf;
     size_t len;
-    char err[512];
-    double added_s, done_v;
     if (wdr_read_file(path, &buf, &len) != WDR_OK)
         return wdrctl_fail(EX_NOINPUT, "%s: cannot read LUT", path);
-    int rc = wdr_cal_board_store_lut(&d->board, buf, len, &added_s, &done_v, err, sizeof err);
+    wdr_cal_board_lut l = {&d->board, buf, len};
+    wdr_cal_margin m;
+    fprintf(stderr, "wdrctl: %s: sizing its calibration margin on the board's frames\n", path);
+    int rc = cal_size_margin(src, design, wdr_cal_board_set_margin, &l, &m);
     free(buf);
-    if (rc == WDR_E_INVAL || rc == WDR_E_NOMEM)
-        return wdrctl_fail(EX_DATAERR, "%s: %s", path, rc == WDR_E_NOMEM ? "out of memory" : err);
-    if (rc)
-        return wdrctl_conn_fail(&d->conn, rc);
-    fprintf(stderr, "wdrctl: %s stored with a %.0f mV calibration margin (+%.3g s of integration)\n", path,
-            done_v * 1e3, added_s);
-    return EX_OK;
+    if (rc == EX_OK)
+        fprintf(stderr, "wdrctl: %s stored with a %.1f mV calibration margin (+%.3g s of integration)\n", path,
+                m.margin_v * 1e3, m.added_s);
+    return rc;
 }
 
 static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
@@ -61,10 +61,10 @@ static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
     if (wdr_cal_board_open(&d->board, d->conn.c, prompt_level, src) != WDR_OK)
         return wdrctl_fail(EX_OSERR, "out of memory for a %ux%u frame", in->width, in->height);
     if (!d->board.simulated && !o->currents && !o->levels_file)
-        return wdrctl_fail(EX_USAGE, "calibrate: %s sets no light itself: give the levels you will set with "
-                           "--currents A,B,.. or --levels-file FILE (you are asked for each)", o->device);
-    if (o->lut && (rc = upload_lut_with_margin(d, o->lut)) != EX_OK)
-        return rc;
+        return wdrctl_fail(EX_USAGE,
+                           "calibrate: %s sets no light itself: give the levels you will set with "
+                           "--currents A,B,.. or --levels-file FILE (you are asked for each)",
+                           o->device);
     return EX_OK; /* frames come raw (wdr_client_capture_raw): no table is changed to measure */
 }
 
@@ -375,7 +375,8 @@ int cmd_calibrate(int argc, char **argv)
         verify_ctx v = {.quantised = 1, .temporal = 1, .holds_with = "the board as it runs (its converters and noise)"};
         wdr_cal_design design;
         if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK &&
-            (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK) {
+            (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK &&
+            (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &src, &design)) == EX_OK)) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits); /* the board's operator is unknown here: basis-8 */
             cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */
             v.can_light = d.board.simulated, v.design = &design;
