@@ -92,6 +92,7 @@ typedef struct cal_run {
     double lo, hi;
     int frames;                  /* frames per level used (0: o->frames) */
     wdr_cal_frames_choice why;   /* how --frames auto chose (frames 0: not chosen) */
+    wdr_cal_margin margin;       /* the ramp's calibration margin, as sized (rounds 0: none sized) */
 } cal_run;
 
 /* --frames auto: a contrast error of this much from temporal noise at any level (%: half the eye's 1 %), and the most

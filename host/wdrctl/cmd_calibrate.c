@@ -34,20 +34,19 @@ static int prompt_level(double amps)
 /* The LUT file the board will image with, stored with the calibration margin this chip needs
  * (sized from the board's own frames: cal_size_margin). */
 static int upload_lut_with_margin(device_src *d, const char *path, const wdr_cal_source *src,
-                                  const wdr_cal_design *design)
+                                  const wdr_cal_design *design, wdr_cal_margin *m)
 {
     uint8_t *buf;
     size_t len;
     if (wdr_read_file(path, &buf, &len) != WDR_OK)
         return wdrctl_fail(EX_NOINPUT, "%s: cannot read LUT", path);
     wdr_cal_board_lut l = {&d->board, buf, len};
-    wdr_cal_margin m;
     fprintf(stderr, "wdrctl: %s: sizing its calibration margin on the board's frames\n", path);
-    int rc = cal_size_margin(src, design, wdr_cal_board_set_margin, &l, &m);
+    int rc = cal_size_margin(src, design, wdr_cal_board_set_margin, &l, m);
     free(buf);
     if (rc == EX_OK)
         fprintf(stderr, "wdrctl: %s stored with a %.1f mV calibration margin (+%.3g s of integration)\n", path,
-                m.margin_v * 1e3, m.added_s);
+                m->margin_v * 1e3, m->added_s);
     return rc;
 }
 
@@ -212,6 +211,9 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
         printf(" A (0: dark reference)\nworst contrast error at selection: %s\n",
                cal_pct_text(r->choice.worst_pct, "levels given, not selected", pct, sizeof pct));
         printf("frames per level: %d%s\n", r->frames, r->why.frames ? " (auto)" : "");
+        if (r->margin.rounds)
+            printf("calibration margin: %.1f mV, +%.1f us of integration (sized from the chip's frames)\n",
+                   r->margin.margin_v * 1e3, r->margin.added_s * 1e6);
         return;
     }
     cJSON *j = cJSON_CreateObject();
@@ -236,6 +238,16 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
         cJSON_AddNumberToObject(a, "wanted_codes", r->why.want_codes);
         cJSON_AddNumberToObject(a, "frames_needed", r->why.needed);
         cJSON_AddBoolToObject(a, "capped", r->why.capped);
+    }
+    if (r->margin.rounds) { /* the ramp's calibration margin, sized from the chip's frames */
+        cJSON *m = cJSON_AddObjectToObject(j, "calibration_margin");
+        cJSON_AddNumberToObject(m, "margin_mV", r->margin.margin_v * 1e3);
+        cJSON_AddNumberToObject(m, "added_integration_us", r->margin.added_s * 1e6);
+        cJSON_AddNumberToObject(m, "latest_above_median_mV", r->margin.latest_v * 1e3);
+        cJSON_AddNumberToObject(m, "crossing_level_sd_mV", r->margin.spread_v * 1e3);
+        cJSON_AddNumberToObject(m, "guard_mV", r->margin.guard_v * 1e3);
+        cJSON_AddNumberToObject(m, "at_A", r->margin.dim_a);
+        cJSON_AddNumberToObject(m, "probe_rounds", r->margin.rounds);
     }
     static const char *flag_names[] = {"dead", "stuck", "hot", "saturated", "unfit"};
     cJSON *f = cJSON_AddObjectToObject(j, "flags");
@@ -376,7 +388,7 @@ int cmd_calibrate(int argc, char **argv)
         wdr_cal_design design;
         if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK &&
             (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK &&
-            (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &src, &design)) == EX_OK)) {
+            (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &src, &design, &r.margin)) == EX_OK)) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits); /* the board's operator is unknown here: basis-8 */
             cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */
             v.can_light = d.board.simulated, v.design = &design;
@@ -404,6 +416,7 @@ int cmd_calibrate(int argc, char **argv)
     verify_ctx v = {.can_light = 1, .quantised = o.adc, .temporal = o.noise, .design = &c.design,
                     .holds_with = sim_conditions(&o)};
     rc = verify_display(&o, &b, &v);
+    r.margin = c.margin;
     if (rc == EX_OK)
         rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model, &v);
     cal_free_run(&r);
