@@ -162,10 +162,28 @@ int cal_design_for(const wdr_board *b, const char *op_name, double t_int_s, wdr_
     return EX_OK;
 }
 
+int cal_size_margin(const wdr_cal_source *src, const wdr_cal_design *d, wdr_cal_margin_set_fn set, void *ctx,
+                    wdr_cal_margin *m)
+{
+    char err[512];
+    wdr_cal_margin_req req;
+    wdr_cal_margin_req_for(d, GRID_LO, GRID_HI, PROBE_FRAMES, &req);
+    int rc = wdr_cal_margin_size(src, &req, set, ctx, m, err, sizeof err);
+    if (rc)
+        return wdrctl_fail(rc == WDR_E_INVAL ? EX_DATAERR : EX_IOERR, "calibrate: %s", err);
+    fprintf(stderr,
+            "wdrctl: calibration margin %.1f mV (+%.1f us of integration): the latest-crossing pixel at %.3g A "
+            "crosses %.1f mV above the median one (crossing-level spread %.1f mV sd, guard %.1f mV; %d probe "
+            "round%s of %.3g and %.3g A)\n",
+            m->margin_v * 1e3, m->added_s * 1e6, m->dim_a, m->latest_v * 1e3, m->spread_v * 1e3, m->guard_v * 1e3,
+            m->rounds, m->rounds > 1 ? "s" : "", m->dim_a, m->bright_a);
+    return EX_OK;
+}
+
 int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c)
 {
     char err[512];
-    if (wdr_cal_sim_setup(b, o->op_name, o->seed, o->adc, WDR_CAL_MARGIN_V, &c->sim, &c->lut, err, sizeof err))
+    if (wdr_cal_sim_setup(b, o->op_name, o->seed, o->adc, WDR_CAL_MARGIN_START_V, &c->sim, &c->lut, err, sizeof err))
         return wdrctl_fail(EX_CONFIG, "simulated chip for operator '%s': %s", o->op_name, err);
     if (!o->dac)
         wdr_sim_set_effect(c->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
@@ -174,6 +192,14 @@ int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c)
         wdr_sim_set_effect(c->sim, temporal[k], WDR_FX_ON);
     c->ss = (wdr_cal_simsrc){c->sim, o->adc, 1000};
     int rc = cal_design_for(b, o->op_name, wdr_sim_integration_time(c->sim), &c->design);
+    if (rc == EX_OK) { /* the margin from the chip's frames, then the design for the ramp it made */
+        wdr_cal_sim_margin m = {c->sim, b, o->op_name, c->lut};
+        wdr_cal_source src = {b->width, b->height, wdr_cal_sim_capture, &c->ss};
+        rc = cal_size_margin(&src, &c->design, wdr_cal_sim_set_margin, &m, &c->margin);
+        c->lut = m.lut;
+    }
+    if (rc == EX_OK)
+        rc = cal_design_for(b, o->op_name, wdr_sim_integration_time(c->sim), &c->design);
     if (rc != EX_OK)
         cal_close_sim(c);
     return rc;

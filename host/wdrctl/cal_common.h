@@ -5,6 +5,7 @@
 #include "board.h"
 #include "cal_design.h"
 #include "cal_engine.h"
+#include "cal_margin.h"
 #include "cal_select.h"
 #include "wdrctl.h"
 #include <stddef.h>
@@ -94,6 +95,7 @@ typedef struct sim_chip {
     uint8_t *lut;
     wdr_cal_simsrc ss;
     wdr_cal_design design; /* the chip's designed response (end slopes, quantisation floor) */
+    wdr_cal_margin margin; /* the calibration margin its ramp carries, sized from its frames */
 } sim_chip;
 
 typedef struct cal_run {
@@ -106,6 +108,7 @@ typedef struct cal_run {
     double lo, hi;
     int frames;                  /* frames per level used (0: o->frames) */
     wdr_cal_frames_choice why;   /* how --frames auto chose (frames 0: not chosen) */
+    wdr_cal_margin margin;       /* the ramp's calibration margin, as sized (rounds 0: none sized) */
 } cal_run;
 
 /* --frames auto: a contrast error of this much from temporal noise at any level (%: half the eye's 1 %), and the most
@@ -130,7 +133,13 @@ int cal_load_board(const char *name, wdr_board *b);
 /* The designed response of board b under operator op_name for a LUT of integration time t_int_s
  * (0: the ramp design's), read at the middle row. @return a sysexits code */
 int cal_design_for(const wdr_board *b, const char *op_name, double t_int_s, wdr_cal_design *d);
+/* The simulated chip, its ramp's calibration margin sized from its own frames (cal_margin.h:
+ * the latest-crossing pixel crosses at GRID_LO, the dimmest level calibrate may take). */
 int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c);
+/* Size the margin of the LUT the source images with (set puts a LUT with a margin in front of
+ * it), print the margin chosen and its cost. @return a sysexits code; the failure is printed */
+int cal_size_margin(const wdr_cal_source *src, const wdr_cal_design *d, wdr_cal_margin_set_fn set, void *ctx,
+                    wdr_cal_margin *m);
 void cal_close_sim(sim_chip *c);
 wdr_cal_progress_fn cal_progress_fn(void);
 

@@ -31,24 +31,23 @@ static int prompt_level(double amps)
     return ch == EOF ? WDR_E_IO : WDR_OK;
 }
 
-/* The LUT file the board will image with, stored with the calibration margin. */
-static int upload_lut_with_margin(device_src *d, const char *path)
+/* The LUT file the board will image with, stored with the calibration margin this chip needs
+ * (sized from the board's own frames: cal_size_margin). */
+static int upload_lut_with_margin(device_src *d, const char *path, const wdr_cal_source *src,
+                                  const wdr_cal_design *design, wdr_cal_margin *m)
 {
     uint8_t *buf;
     size_t len;
-    char err[512];
-    double added_s, done_v;
     if (wdr_read_file(path, &buf, &len) != WDR_OK)
         return wdrctl_fail(EX_NOINPUT, "%s: cannot read LUT", path);
-    int rc = wdr_cal_board_store_lut(&d->board, buf, len, &added_s, &done_v, err, sizeof err);
+    wdr_cal_board_lut l = {&d->board, buf, len};
+    fprintf(stderr, "wdrctl: %s: sizing its calibration margin on the board's frames\n", path);
+    int rc = cal_size_margin(src, design, wdr_cal_board_set_margin, &l, m);
     free(buf);
-    if (rc == WDR_E_INVAL || rc == WDR_E_NOMEM)
-        return wdrctl_fail(EX_DATAERR, "%s: %s", path, rc == WDR_E_NOMEM ? "out of memory" : err);
-    if (rc)
-        return wdrctl_conn_fail(&d->conn, rc);
-    fprintf(stderr, "wdrctl: %s stored with a %.0f mV calibration margin (+%.3g s of integration)\n", path,
-            done_v * 1e3, added_s);
-    return EX_OK;
+    if (rc == EX_OK)
+        fprintf(stderr, "wdrctl: %s stored with a %.1f mV calibration margin (+%.3g s of integration)\n", path,
+                m->margin_v * 1e3, m->added_s);
+    return rc;
 }
 
 /* A board without a LUT refuses every capture ("refused by the board" from the first frame):
@@ -80,11 +79,11 @@ static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
     if (wdr_cal_board_open(&d->board, d->conn.c, prompt_level, src) != WDR_OK)
         return wdrctl_fail(EX_OSERR, "out of memory for a %ux%u frame", in->width, in->height);
     if (!d->board.simulated && !o->currents && !o->levels_file)
-        return wdrctl_fail(EX_USAGE, "calibrate: %s sets no light itself: give the levels you will set with "
-                           "--currents A,B,.. or --levels-file FILE (you are asked for each)", o->device);
-    if (o->lut && (rc = upload_lut_with_margin(d, o->lut)) != EX_OK)
-        return rc;
-    return require_lut(d, o->device); /* frames come raw (wdr_client_capture_raw): no table is changed to measure */
+        return wdrctl_fail(EX_USAGE,
+                           "calibrate: %s sets no light itself: give the levels you will set with "
+                           "--currents A,B,.. or --levels-file FILE (you are asked for each)",
+                           o->device);
+    return EX_OK; /* frames come raw (wdr_client_capture_raw): no table is changed to measure */
 }
 
 /* On success and on failure alike: the scene goes back in front of a simulated board (a failure
@@ -324,6 +323,9 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
     const wdr_cal_result *res = &r->res;
     if (!o->json) {
         print_text_summary(o, r);
+        if (r->margin.rounds)
+            printf("calibration margin: %.1f mV, +%.1f us of integration (sized from the chip's frames)\n",
+                   r->margin.margin_v * 1e3, r->margin.added_s * 1e6);
         return;
     }
     cJSON *j = cJSON_CreateObject();
@@ -356,6 +358,16 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
         cJSON_AddNumberToObject(a, "wanted_codes", r->why.want_codes);
         cJSON_AddNumberToObject(a, "frames_needed", r->why.needed);
         cJSON_AddBoolToObject(a, "capped", r->why.capped);
+    }
+    if (r->margin.rounds) { /* the ramp's calibration margin, sized from the chip's frames */
+        cJSON *m = cJSON_AddObjectToObject(j, "calibration_margin");
+        cJSON_AddNumberToObject(m, "margin_mV", r->margin.margin_v * 1e3);
+        cJSON_AddNumberToObject(m, "added_integration_us", r->margin.added_s * 1e6);
+        cJSON_AddNumberToObject(m, "latest_above_median_mV", r->margin.latest_v * 1e3);
+        cJSON_AddNumberToObject(m, "crossing_level_sd_mV", r->margin.spread_v * 1e3);
+        cJSON_AddNumberToObject(m, "guard_mV", r->margin.guard_v * 1e3);
+        cJSON_AddNumberToObject(m, "at_A", r->margin.dim_a);
+        cJSON_AddNumberToObject(m, "probe_rounds", r->margin.rounds);
     }
     cJSON *f = cJSON_AddObjectToObject(j, "flags"); /* one kind per pixel: these add up to pixels_flagged */
     for (int b = 0; b < WDR_CAL_FLAG_KINDS; b++)
@@ -519,7 +531,9 @@ int cmd_calibrate(int argc, char **argv)
         verify_ctx v = {.quantised = 1, .temporal = 1, .holds_with = "the board as it runs (its converters and noise)"};
         wdr_cal_design design;
         if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK &&
-            (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK) {
+            (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK &&
+            (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &src, &design, &r.margin)) == EX_OK) &&
+            (rc = require_lut(&d, o.device)) == EX_OK) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits); /* the board's operator is unknown here: basis-8 */
             cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */
             v.can_light = d.board.simulated, v.design = &design;
@@ -547,6 +561,7 @@ int cmd_calibrate(int argc, char **argv)
     verify_ctx v = {.can_light = 1, .quantised = o.adc, .temporal = o.noise, .design = &c.design,
                     .holds_with = sim_conditions(&o)};
     rc = verify_display(&o, &b, &v);
+    r.margin = c.margin;
     if (rc == EX_OK)
         rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model, &v);
     cal_free_run(&r);

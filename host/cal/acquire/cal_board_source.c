@@ -1,9 +1,11 @@
 /* A board as the calibration frame source (see cal_board_source.h). */
 #include "cal_board_source.h"
+#include "cal_margin.h"
 #include "wdr_cal.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
 #include "wdr_proto.h"
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -55,13 +57,12 @@ int wdr_cal_board_close(wdr_cal_board *d)
     return rc;
 }
 
-int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double *added_s, double *done_v,
-                            char *err, int errlen)
+int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double margin_v, double *added_s,
+                            double *done_v, char *err, int errlen)
 {
     uint8_t *ext = NULL;
     size_t ext_len;
-    int rc = wdr_cal_lut_extend(lut, len, WDR_CAL_MARGIN_V, WDR_CAL_MARGIN_MAX_TIME_FRAC, &ext, &ext_len, added_s,
-                                done_v, err, errlen);
+    int rc = wdr_cal_lut_with_margin(lut, len, margin_v, &ext, &ext_len, added_s, done_v, err, errlen);
     if (rc)
         return rc;
     wdr_commit_reply reply;
@@ -82,4 +83,14 @@ int wdr_cal_board_store_table(wdr_cal_board *d, const uint8_t *table, size_t len
 {
     wdr_commit_reply reply;
     return wdr_client_upload(d->client, WDR_KIND_CAL, table, len, NULL, NULL, &reply);
+}
+
+int wdr_cal_board_set_margin(void *ctx, double margin_v, double *done_v, double *added_s, char *err, int errlen)
+{
+    wdr_cal_board_lut *l = ctx;
+    int rc = wdr_cal_board_store_lut(l->board, l->lut, l->len, margin_v, added_s, done_v, err, errlen);
+    if (rc && rc != WDR_E_INVAL && rc != WDR_E_NOMEM)
+        snprintf(err, (size_t)errlen, "storing the LUT with a %.1f mV margin: %s", margin_v * 1e3,
+                 l->board->client->err[0] ? l->board->client->err : wdr_strerror(rc));
+    return rc;
 }

@@ -28,12 +28,21 @@ int wdr_cal_board_open(wdr_cal_board *d, wdr_client *client, wdr_cal_ask_level_f
  * calibration succeeded or not. @retval WDR_OK, or the client's error putting the scene back */
 int wdr_cal_board_close(wdr_cal_board *d);
 
-/* Store the LUT the board will image with, continued past its last code by the calibration
- * margin (wdr_cal_lut_extend), so that pixels with high thresholds cross at the dimmest
- * currents. *added_s and *done_v report the extension.
+/* Store the LUT the board will image with, continued past its last code by margin_v of
+ * calibration margin (wdr_cal_lut_with_margin), so that pixels with high thresholds cross at the
+ * dimmest currents. *added_s and *done_v report the extension.
  * @retval WDR_OK; WDR_E_INVAL or WDR_E_NOMEM from the extension (err says why); the client's error */
-int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double *added_s, double *done_v,
-                            char *err, int errlen);
+int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double margin_v, double *added_s,
+                            double *done_v, char *err, int errlen);
+
+/* The board's margin setter for wdr_cal_margin_size (cal_margin.h): ctx is a wdr_cal_board_lut,
+ * the LUT file's bytes, stored again with each margin tried. */
+typedef struct wdr_cal_board_lut {
+    wdr_cal_board *board;
+    const uint8_t *lut;
+    size_t len;
+} wdr_cal_board_lut;
+int wdr_cal_board_set_margin(void *ctx, double margin_v, double *done_v, double *added_s, char *err, int errlen);
 
 /* Whether the board plays a LUT (STATUS: an active LUT slot): without one it refuses every
  * capture, so calibration asks before it captures. @retval WDR_OK (*has_lut set), or the client's error */

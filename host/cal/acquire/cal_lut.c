@@ -7,6 +7,7 @@
 #include "cal_engine.h"
 #include "wdr_err.h"
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,14 +26,19 @@ static double final_slope(const wdr_lut_view *lut, uint32_t *t_last, uint16_t *c
     return *t_last > t0 && *c_last > c0 ? (double)(*c_last - c0) / (double)(*t_last - t0) : 0;
 }
 
-/* Codes the extension may add: the margin, capped by the DAC's top code and the time budget. */
-static uint32_t extension_codes(const wdr_lut_view *lut, uint16_t c_last, uint32_t t_last, double step,
-                                double margin_v, double max_time_frac)
+/* Codes the extension may add: the margin, capped by the DAC's top code, the time budget and the
+ * 32-bit tick count. The last entry lands at t_last + ceil(extra step) and the integration ends
+ * ceil(step) + 1 ticks later; that end must still be a u32 (a ramp ending near 2^32 ticks once
+ * wrapped it to a few ticks, below its own last entry, and the result did not parse). */
+static uint32_t extension_codes(const wdr_lut_view *lut, uint16_t c_last, uint32_t t_last, double step, double margin_v,
+                                double max_time_frac)
 {
     uint32_t max_code = (1u << lut->h.dac_bits) - 1u;
     double lsb = (lut->h.dac_hi_v - lut->h.dac_lo_v) / max_code;
     double want = ceil(margin_v / lsb - 1e-6), by_time = floor(max_time_frac * t_last / step); /* f32 volts */
-    double extra = fmin(fmin(want, by_time), (double)(max_code - c_last));
+    double room = (double)UINT32_MAX - t_last - ceil(step) - 2; /* ticks left for the extension's entries */
+    double by_ticks = room > 0 ? floor(room / step) : 0;
+    double extra = fmin(fmin(fmin(want, by_time), by_ticks), (double)(max_code - c_last));
     extra = fmin(extra, (double)(WDR_LUT_MAX_ENTRIES - lut->h.entry_count));
     return extra > 0 ? (uint32_t)extra : 0;
 }
@@ -69,10 +75,13 @@ int wdr_cal_lut_extend(const uint8_t *in, size_t in_len, double margin_v, double
     uint16_t c_last;
     double slope = final_slope(&lut, &t_last, &c_last);
     double step = slope > 0 ? 1 / slope : 0; /* ticks per code */
-    uint32_t extra = step > 0 && margin_v > 0 ? extension_codes(&lut, c_last, t_last, step, margin_v, max_time_frac) : 0;
+    uint32_t extra =
+        step > 0 && margin_v > 0 ? extension_codes(&lut, c_last, t_last, step, margin_v, max_time_frac) : 0;
     if (extra == 0) {
-        snprintf(err, (size_t)errlen, "cannot extend the ramp by %.1f mV: final slope %.3g codes/tick, last code %u, "
-                 "time limit %.0f %% of %u ticks", margin_v * 1e3, slope, c_last, max_time_frac * 100, t_last);
+        snprintf(err, (size_t)errlen,
+                 "cannot extend the ramp by %.1f mV: final slope %.3g codes/tick, last code %u, "
+                 "time limit %.0f %% of %u ticks (and 2^32 ticks in all)",
+                 margin_v * 1e3, slope, c_last, max_time_frac * 100, t_last);
         return WDR_E_INVAL;
     }
     *margin_done_v = extra * (lut.h.dac_hi_v - lut.h.dac_lo_v) / ((1u << lut.h.dac_bits) - 1u);
