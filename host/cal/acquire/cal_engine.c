@@ -207,27 +207,3 @@ int wdr_cal_sim_setup(const wdr_board *b, const char *op_name, uint64_t chip_see
         snprintf(err, (size_t)errlen, "simulator refused the LUT: %s", wdr_strerror(rc));
     return rc;
 }
-
-int wdr_cal_sim_set_margin(void *ctx, double margin_v, double *done_v, double *added_s, char *err, int errlen)
-{
-    wdr_cal_sim_margin *m = ctx;
-    uint8_t *base, *ext;
-    size_t len, ext_len;
-    wdr_lut_view lut;
-    int rc = wdr_ramp_board_lut(m->board, m->op_name, &base, &len, NULL, err, errlen);
-    if (rc)
-        return rc;
-    rc = wdr_cal_lut_with_margin(base, len, margin_v, &ext, &ext_len, added_s, done_v, err, errlen);
-    free(base);
-    if (rc)
-        return rc;
-    if ((rc = wdr_lut_parse(ext, ext_len, &lut)) || (rc = wdr_sim_set_lut(m->sim, &lut))) {
-        snprintf(err, (size_t)errlen, "simulator refused the LUT with a %.1f mV margin: %s", *done_v * 1e3,
-                 wdr_strerror(rc));
-        free(ext);
-        return rc;
-    }
-    free(m->lut); /* the chip now reads the new bytes */
-    m->lut = ext;
-    return WDR_OK;
-}

@@ -127,3 +127,14 @@ double wdr_cal_design_end_ratio(const wdr_cal_design *d, double x0, double x1)
     double r = wdr_cal_design_log_slope(d, x0) / secant;
     return isfinite(r) && r > 0 ? r : 0;
 }
+
+void wdr_cal_margin_req_for(const wdr_cal_design *d, double dim_a, double bright_a, int frames, wdr_cal_margin_req *req)
+{
+    const wdr_board *b = &d->board;
+    double lsb = (b->dac_hi_v - b->dac_lo_v) / (double)((1u << b->dac_bits) - 1u);
+    *req = (wdr_cal_margin_req){.dim_a = dim_a,
+                                .bright_a = bright_a,
+                                .dac_lsb_v = lsb,
+                                .frames = frames,
+                                .codes_per_v = wdr_cal_design_dac_step_codes(d, dim_a) / lsb};
+}

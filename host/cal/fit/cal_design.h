@@ -8,6 +8,7 @@
  * operator's curve. It never uses a simulated chip's per-pixel parameters. */
 #ifndef WDR_CAL_DESIGN_H
 #define WDR_CAL_DESIGN_H
+#include "cal_margin.h"
 #include "board.h"
 #include "operators.h"
 #include "ramp.h"
@@ -51,5 +52,11 @@ double wdr_cal_design_dac_step_codes(const wdr_cal_design *d, double x);
 /* Ratio of the slope at x0 to the secant from x0 to x1: the shape of the response at an end of a
  * set of knots, independent of the pixel's own gain. */
 double wdr_cal_design_end_ratio(const wdr_cal_design *d, double x0, double x1);
+
+/* The calibration margin probe's request for this design (cal_margin.h: the follower's gain at
+ * the dark end, the DAC step): levels dim_a and bright_a, frames each. Here, in fit/, because the
+ * margin itself is acquisition (acquire/cal_margin.c) and may not reach up into the design. */
+void wdr_cal_margin_req_for(const wdr_cal_design *d, double dim_a, double bright_a, int frames,
+                            wdr_cal_margin_req *req);
 
 #endif

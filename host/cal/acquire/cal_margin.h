@@ -73,12 +73,6 @@ int wdr_cal_margin_size(const wdr_cal_source *src, const wdr_cal_margin_req *req
 int wdr_cal_lut_with_margin(const uint8_t *in, size_t in_len, double margin_v, uint8_t **out, size_t *out_len,
                             double *added_s, double *done_v, char *err, int errlen);
 
-/* The probe's request for a board's design (the follower's gain at the dark end, the DAC step):
- * levels dim_a and bright_a, frames each. */
-struct wdr_cal_design;
-void wdr_cal_margin_req_for(const struct wdr_cal_design *d, double dim_a, double bright_a, int frames,
-                            wdr_cal_margin_req *req);
-
 /* The simulator's setter (cal_engine.c): ctx is a wdr_cal_sim_margin; each call builds the board's
  * LUT for the operator, adds the margin (wdr_cal_lut_with_margin) and sets it on the chip; lut
  * holds the bytes in use (malloc'd: the caller frees it when done with the chip). */

@@ -1,6 +1,6 @@
 /* The calibration margin sized from the chip's frames (see cal_margin.h). */
 #include "cal_margin.h"
-#include "cal_design.h"
+#include "ramp.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
 #include <math.h>
@@ -174,13 +174,27 @@ int wdr_cal_lut_with_margin(const uint8_t *in, size_t in_len, double margin_v, u
     return WDR_OK;
 }
 
-void wdr_cal_margin_req_for(const wdr_cal_design *d, double dim_a, double bright_a, int frames, wdr_cal_margin_req *req)
+/* The simulator as the chip the margin is set on (cal_margin.h). */
+int wdr_cal_sim_set_margin(void *ctx, double margin_v, double *done_v, double *added_s, char *err, int errlen)
 {
-    const wdr_board *b = &d->board;
-    double lsb = (b->dac_hi_v - b->dac_lo_v) / (double)((1u << b->dac_bits) - 1u);
-    *req = (wdr_cal_margin_req){.dim_a = dim_a,
-                                .bright_a = bright_a,
-                                .dac_lsb_v = lsb,
-                                .frames = frames,
-                                .codes_per_v = wdr_cal_design_dac_step_codes(d, dim_a) / lsb};
+    wdr_cal_sim_margin *m = ctx;
+    uint8_t *base, *ext;
+    size_t len, ext_len;
+    wdr_lut_view lut;
+    int rc = wdr_ramp_board_lut(m->board, m->op_name, &base, &len, NULL, err, errlen);
+    if (rc)
+        return rc;
+    rc = wdr_cal_lut_with_margin(base, len, margin_v, &ext, &ext_len, added_s, done_v, err, errlen);
+    free(base);
+    if (rc)
+        return rc;
+    if ((rc = wdr_lut_parse(ext, ext_len, &lut)) || (rc = wdr_sim_set_lut(m->sim, &lut))) {
+        snprintf(err, (size_t)errlen, "simulator refused the LUT with a %.1f mV margin: %s", *done_v * 1e3,
+                 wdr_strerror(rc));
+        free(ext);
+        return rc;
+    }
+    free(m->lut); /* the chip now reads the new bytes */
+    m->lut = ext;
+    return WDR_OK;
 }
