@@ -36,9 +36,12 @@ int cm_model_from_name(const char *name)
 static const struct {
     const char *name;
     int form, n;
-} form_names[] = {{"moebius", WDR_FORM_MOEBIUS, 3}, {"poly-5", WDR_FORM_POLY, 5},
-                  {"basis-8", WDR_FORM_BASIS, 8},   {"compact", WDR_FORM_COMPACT, WDR_CAL_COMPACT_COEFFS},
-                  {"shifted", WDR_FORM_SHIFTED, WDR_CAL_COMPACT_COEFFS}, {"auto", CM_FORM_AUTO, 0}};
+} form_names[] = {{"moebius", WDR_FORM_MOEBIUS, 3},
+                  {"poly-5", WDR_FORM_POLY, 5},
+                  {"basis-8", WDR_FORM_BASIS, 8},
+                  {"compact", WDR_FORM_COMPACT, WDR_CAL_COMPACT_COEFFS},
+                  {"shifted", WDR_FORM_SHIFTED, WDR_CAL_COMPACT_COEFFS},
+                  {"auto", CM_FORM_AUTO, 0}};
 
 const char *cm_form_name(int form, int n_coeffs, char *buf, int cap)
 {
@@ -46,7 +49,10 @@ const char *cm_form_name(int form, int n_coeffs, char *buf, int cap)
         if (form_names[i].form == form && (form_names[i].n == n_coeffs || form == CM_FORM_AUTO ||
                                            form == WDR_FORM_COMPACT || form == WDR_FORM_SHIFTED))
             return form_names[i].name;
-    snprintf(buf, (size_t)cap, "%s-%d", form == WDR_FORM_POLY ? "poly" : form == WDR_FORM_BASIS ? "basis" : "form",
+    snprintf(buf, (size_t)cap, "%s-%d",
+             form == WDR_FORM_POLY    ? "poly"
+             : form == WDR_FORM_BASIS ? "basis"
+                                      : "form",
              n_coeffs);
     return buf;
 }
@@ -75,7 +81,10 @@ int cm_model_forms(int model, int *forms, int *n_coeffs)
     return n;
 }
 
-double cm_ppm(const cm_side *s) { return s->healthy ? 1e6 * (double)s->healthy_flagged / (double)s->healthy : NAN; }
+double cm_ppm(const cm_side *s)
+{
+    return s->healthy ? 1e6 * (double)s->healthy_flagged / (double)s->healthy : NAN;
+}
 
 /* ---- one chip, one converter condition ---- */
 
@@ -85,13 +94,15 @@ typedef struct chip {
     uint8_t *lut, *truth;
     wdr_cal_simsrc ss;
     wdr_cal_source src;
-    wdr_cal_levels grid;
+    wdr_cal_levels grid, lv; /* the probe grid; the levels of the fit (lv.dark is the grid's) */
     wdr_cal_design design;
     int converters;
 } chip;
 
 static void chip_close(chip *c)
 {
+    c->lv.dark = NULL;
+    wdr_cal_levels_free(&c->lv);
     wdr_cal_levels_free(&c->grid);
     wdr_sim_destroy(c->sim);
     free(c->lut);
@@ -140,8 +151,8 @@ static int chip_open(chip *c, const cm_setup *s, const char *op, uint64_t seed, 
         amps[k] = GRID_LO * pow(10, (double)k / GRID_PER_DECADE);
     /* temporal noise off: one frame per level is the average of any number */
     if (wdr_cal_acquire(&c->src, amps, GRID_LEVELS, 1, 1, NULL, NULL, &c->grid, err, sizeof err) ||
-        wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim),
-                            c->b.height / 2 * c->b.row_time_s, 1, err, sizeof err))
+        wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim), c->b.height / 2 * c->b.row_time_s,
+                            1, err, sizeof err))
         return fprintf(stderr, "cal_matrix: %s: %s\n", op, err), 1;
     return 0;
 }
@@ -163,23 +174,22 @@ static void config_for(const chip *c, int model, double lo, double hi, wdr_cal_c
 }
 
 /* Levels calibrate takes by default (cal_common.c cal_default_currents). */
-static int default_currents(int model) { return model == WDR_MODEL_SIMPLE3 || model == WDR_MODEL_COMPLEX4 ? 5 : 19; }
+static int default_currents(int model)
+{
+    return model == WDR_MODEL_SIMPLE3 || model == WDR_MODEL_COMPLEX4 ? 5 : 19;
+}
 
 static int fit(chip *c, int model, double lo, double hi, wdr_cal_result *res, char *reason)
 {
     char err[512];
     wdr_cal_config cfg;
     wdr_cal_choice ch;
-    wdr_cal_levels lv;
     config_for(c, model, lo, hi, &cfg);
-    if (wdr_cal_select_currents(&c->grid, &cfg, default_currents(model), lo, hi, SAMPLE_PIXELS, &ch, err,
-                                sizeof err))
+    if (wdr_cal_select_currents(&c->grid, &cfg, default_currents(model), lo, hi, SAMPLE_PIXELS, &ch, err, sizeof err))
         return snprintf(reason, CM_REASON, "selection: %.180s", err), 1;
-    if (wdr_cal_levels_from_choice(&c->grid, &ch, &lv))
+    if (wdr_cal_levels_from_choice(&c->grid, &ch, &c->lv))
         return snprintf(reason, CM_REASON, "levels: out of memory"), 1;
-    int rc = wdr_cal_fit_array(&lv, &cfg, res, err, sizeof err);
-    lv.dark = NULL; /* the grid's */
-    wdr_cal_levels_free(&lv);
+    int rc = wdr_cal_fit_array(&c->lv, &cfg, res, err, sizeof err);
     if (rc)
         snprintf(reason, CM_REASON, "fit: %.180s", err);
     return rc != 0;
@@ -221,7 +231,8 @@ static int judge(chip *c, const wdr_cal_result *res, int form, int n, const doub
     for (int r = 0; r < c->b.height; r++) {
         const uint8_t *fl = wdr_cal_row_flags(&tab, r);
         for (int i = 0; i < c->b.width; i++) {
-            int flagged = wdr_cal_pixel_flags(tab.h.form, fl[i]) != 0, planted = c->truth[(long)r * c->b.width + i] != 0;
+            int flagged = wdr_cal_pixel_flags(tab.h.form, fl[i]) != 0,
+                planted = c->truth[(long)r * c->b.width + i] != 0;
             s->planted += planted, s->planted_found += planted && flagged;
             s->healthy += !planted, s->healthy_flagged += !planted && flagged;
         }
@@ -256,7 +267,8 @@ static void floor_ratio(cm_cell *cell, const double *x, const double *a, const d
     for (int k = 0; isfinite(cell->floor_ratio) && k < CM_N_TEST; k++) {
         double r = e[k] / hypot(a[k], qf[k]);
         if (!(r <= cell->floor_ratio))
-            cell->floor_ratio = r, cell->ratio_at = x[k], cell->ratio_err = e[k], cell->ratio_floor = hypot(a[k], qf[k]);
+            cell->floor_ratio = r, cell->ratio_at = x[k], cell->ratio_err = e[k],
+            cell->ratio_floor = hypot(a[k], qf[k]);
     }
 }
 
@@ -273,7 +285,8 @@ int cm_run_chip(const cm_setup *s, int model, const char *op, uint64_t seed, dou
     /* both sides judged at the same currents: the analog chip's informative range */
     if (wdr_cal_informative_range(&c[0].grid, MIN_SLOPE_CODES, &lo, &hi) &&
         wdr_cal_informative_range(&c[1].grid, MIN_SLOPE_CODES, &lo, &hi))
-        snprintf(reason[0], CM_REASON, "the response is flat everywhere"), snprintf(reason[1], CM_REASON, "%s", reason[0]);
+        snprintf(reason[0], CM_REASON, "the response is flat everywhere"),
+            snprintf(reason[1], CM_REASON, "%s", reason[0]);
     else
         for (int v = 0; v < 2; v++)
             fitted[v] = !fit(&c[v], model, lo, hi, &res[v], reason[v]);

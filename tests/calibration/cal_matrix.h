@@ -15,19 +15,19 @@
 
 #define CM_FORM_AUTO (-1) /* `wdrctl calibrate --form auto`'s choice for the model and operator */
 #define CM_MAX_FORMS 6
-#define CM_N_TEST 31       /* judged currents, log-spaced over the analog chip's informative range */
-#define CM_DEFECT_PPM 100  /* of each kind, plus one of each at the corners */
+#define CM_N_TEST 31      /* judged currents, log-spaced over the analog chip's informative range */
+#define CM_DEFECT_PPM 100 /* of each kind, plus one of each at the corners */
 #define CM_REASON 200
 
 typedef struct cm_setup {
-    const char *board;    /* board name (WDR_BOARDS_DIR) or file; NULL: sim-qvga */
-    int width, height;    /* 0: the board's */
-    int plant_defects;    /* 1: dead, stuck, hot, saturated planted (CM_DEFECT_PPM each) */
+    const char *board; /* board name (WDR_BOARDS_DIR) or file; NULL: sim-qvga */
+    int width, height; /* 0: the board's */
+    int plant_defects; /* 1: dead, stuck, hot, saturated planted (CM_DEFECT_PPM each) */
 } cm_setup;
 
 /* One converter condition of one cell. */
 typedef struct cm_side {
-    int refused;               /* selection, fit or table refused (reason says where and why) */
+    int refused; /* selection, fit or table refused (reason says where and why) */
     char reason[CM_REASON];
     long healthy, healthy_flagged; /* pixels without a planted defect, and of them flagged (table flags) */
     long planted, planted_found;
@@ -36,18 +36,18 @@ typedef struct cm_side {
 } cm_side;
 
 typedef struct cm_cell {
-    int model;             /* enum wdr_cal_model_id */
+    int model; /* enum wdr_cal_model_id */
     const char *op;
-    int form, n_coeffs;    /* the form built (for CM_FORM_AUTO: the one auto chose) */
-    int asked_auto;        /* the cell is `auto` */
+    int form, n_coeffs; /* the form built (for CM_FORM_AUTO: the one auto chose) */
+    int asked_auto;     /* the cell is `auto` */
     uint64_t seed;
-    double mismatch;       /* every mismatch figure of the board times this */
-    cm_side side[2];       /* 0 analog, 1 12-bit */
-    double floor_ratio;    /* worst over currents of 12-bit error / sqrt(analog^2 + quantisation floor^2) */
+    double mismatch;    /* every mismatch figure of the board times this */
+    cm_side side[2];    /* 0 analog, 1 12-bit */
+    double floor_ratio; /* worst over currents of 12-bit error / sqrt(analog^2 + quantisation floor^2) */
     double ratio_at, ratio_err, ratio_floor; /* where, the 12-bit error there and the floor there (%) */
-    double model_ratio;    /* the same through the model's own inverse in double (no table): above
-                              1.2x the cause is the model and its levels, not the table form */
-    double seconds;        /* this chip run's time, shared by its cells */
+    double model_ratio;                      /* the same through the model's own inverse in double (no table): above
+                                                1.2x the cause is the model and its levels, not the table form */
+    double seconds;                          /* this chip run's time, shared by its cells */
 } cm_cell;
 
 /* The forms a model offers `wdrctl calibrate` (auto last): simple3 moebius, poly-5; complex4, lsq,

@@ -21,8 +21,8 @@
 #define MAX_ANALOG_PCT 1.0
 
 enum check { CHECK_ACCEPTED, CHECK_REFUSED, CHECK_PPM, CHECK_FOUND, CHECK_FLOOR, CHECK_ANALOG };
-static const char *const check_names[] = {"accepted", "refused as expected", "ppm flagged", "defects found",
-                                          "12-bit / floor", "analog worst"};
+static const char *const check_names[] = {"accepted",      "refused as expected", "ppm flagged",
+                                          "defects found", "12-bit / floor",      "analog worst"};
 
 /* The subset: chip runs (every run builds the listed forms; 0 forms: auto only). */
 typedef struct run {
@@ -136,8 +136,8 @@ static void judge(const cm_cell *c, int side, enum check k, int ok, double figur
     const char *sn = side == 0 ? "analog" : side == 1 ? "12-bit" : "both";
     if (ok && !e)
         return;
-    printf("  %s %s seed %llu %gx %s: %s %.4g (limit %s)", cm_model_name(c->model), c->op,
-           (unsigned long long)c->seed, c->mismatch, sn, check_names[k], figure, limit);
+    printf("  %s %s seed %llu %gx %s: %s %.4g (limit %s)", cm_model_name(c->model), c->op, (unsigned long long)c->seed,
+           c->mismatch, sn, check_names[k], figure, limit);
     if (ok) {
         fixed++, failures++;
         printf(" FIXED: now holds; remove it from known_failures (listed at %.4g)\n", e->figure);
@@ -205,7 +205,7 @@ int main(int argc, char **argv)
         }
         fflush(stdout);
     }
-    printf("test_cal_matrix: %d failures (%d of them known failures that now hold), %d known failures open\n",
-           failures, fixed, knowns);
+    printf("test_cal_matrix: %d failures (%d of them known failures that now hold), %d known failures open\n", failures,
+           fixed, knowns);
     return failures ? 1 : 0;
 }
