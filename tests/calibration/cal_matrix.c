@@ -13,6 +13,7 @@
 #include <string.h>
 
 #define GRID_LO 1e-14 /* the probe grid of `wdrctl calibrate` (host/wdrctl/cal_common.h) */
+#define GRID_HI 1e-8
 #define GRID_LEVELS 37
 #define GRID_PER_DECADE 6
 #define MIN_SLOPE_CODES 2.0
@@ -96,6 +97,7 @@ typedef struct chip {
     wdr_cal_source src;
     wdr_cal_levels grid, lv; /* the probe grid; the levels of the fit (lv.dark is the grid's) */
     wdr_cal_design design;
+    wdr_cal_margin margin; /* the calibration margin sized from this chip's frames */
     int converters;
 } chip;
 
@@ -123,6 +125,22 @@ static int plant(chip *c)
     return wdr_sim_set_defects(c->sim, &d);
 }
 
+static int design_for(chip *c, const char *op, char *err, int errlen)
+{
+    return wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim),
+                               c->b.height / 2 * c->b.row_time_s, 1, err, errlen);
+}
+
+static int size_margin(chip *c, const char *op, char *err, int errlen)
+{
+    wdr_cal_margin_req req;
+    wdr_cal_margin_req_for(&c->design, GRID_LO, GRID_HI, 2, &req);
+    wdr_cal_sim_margin m = {c->sim, &c->b, op, c->lut};
+    int rc = wdr_cal_margin_size(&c->src, &req, wdr_cal_sim_set_margin, &m, &c->margin, err, errlen);
+    c->lut = m.lut;
+    return rc;
+}
+
 static int chip_open(chip *c, const cm_setup *s, const char *op, uint64_t seed, double mismatch, int converters)
 {
     char err[512];
@@ -135,7 +153,7 @@ static int chip_open(chip *c, const cm_setup *s, const char *op, uint64_t seed, 
     c->b.avt_mv_um *= mismatch, c->b.abeta_pct_um *= mismatch; /* "every mismatch figure doubled" at 2 */
     c->b.c_pd_sigma_pct *= mismatch, c->b.dark_sigma_ln *= mismatch;
     c->converters = converters;
-    if (wdr_cal_sim_setup(&c->b, op, seed, converters, WDR_CAL_MARGIN_V, &c->sim, &c->lut, err, sizeof err))
+    if (wdr_cal_sim_setup(&c->b, op, seed, converters, WDR_CAL_MARGIN_START_V, &c->sim, &c->lut, err, sizeof err))
         return fprintf(stderr, "cal_matrix: %s: %s\n", op, err), 1;
     if (!converters)
         wdr_sim_set_effect(c->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
@@ -149,10 +167,12 @@ static int chip_open(chip *c, const cm_setup *s, const char *op, uint64_t seed, 
     double amps[GRID_LEVELS];
     for (int k = 0; k < GRID_LEVELS; k++)
         amps[k] = GRID_LO * pow(10, (double)k / GRID_PER_DECADE);
-    /* temporal noise off: one frame per level is the average of any number */
-    if (wdr_cal_acquire(&c->src, amps, GRID_LEVELS, 1, 1, NULL, NULL, &c->grid, err, sizeof err) ||
-        wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim), c->b.height / 2 * c->b.row_time_s,
-                            1, err, sizeof err))
+    /* The margin as calibrate sizes it (cal_common.c, cal_open_sim): from the chip's frames, then
+     * the design again for the ramp it made. Temporal noise off: one frame per level is the
+     * average of any number. */
+    if (design_for(c, op, err, sizeof err) || size_margin(c, op, err, sizeof err) ||
+        design_for(c, op, err, sizeof err) ||
+        wdr_cal_acquire(&c->src, amps, GRID_LEVELS, 1, 1, NULL, NULL, &c->grid, err, sizeof err))
         return fprintf(stderr, "cal_matrix: %s: %s\n", op, err), 1;
     return 0;
 }

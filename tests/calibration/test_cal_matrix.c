@@ -65,12 +65,13 @@ typedef struct refusal {
 } refusal;
 
 static const refusal expected_refusals[] = {
-    {WDR_MODEL_SIMPLE3, "drago", "could be fitted"},
-    {WDR_MODEL_SIMPLE3, "tumblin_rushmeier", "could be fitted"},
-    {WDR_MODEL_SIMPLE3, "logarithmic", "could be fitted"},
-    {WDR_MODEL_COMPLEX4, "tumblin_rushmeier", "could be fitted"},
-    {WDR_MODEL_COMPLEX4, "logarithmic", "could be fitted"},
-    {WDR_MODEL_COMPLEX4, "exponential", "could be fitted"},
+    /* from the design, before any frame, or after the probe (host/cal/metrics/cal_select.c) */
+    {WDR_MODEL_SIMPLE3, "drago", "cannot serve this response"},
+    {WDR_MODEL_SIMPLE3, "tumblin_rushmeier", "cannot serve this response"},
+    {WDR_MODEL_SIMPLE3, "logarithmic", "cannot serve this response"},
+    {WDR_MODEL_COMPLEX4, "tumblin_rushmeier", "cannot serve this response"},
+    {WDR_MODEL_COMPLEX4, "logarithmic", "cannot serve this response"},
+    {WDR_MODEL_COMPLEX4, "drago", "cannot serve this response"},
 };
 
 /* Open failures, measured on this tree (the figure is what the check saw when it was listed). */
@@ -90,19 +91,19 @@ static const known known_failures[] = {
     {WDR_MODEL_SPLINE, "reinhard", 1, 1, 0, CHECK_ANALOG, 1.228, "auto's compact: its table says 0.83 %"},
     {WDR_MODEL_SPLINE, "reinhard", 2, 1, 1, CHECK_FLOOR, 1.677, "compact at the dark end, 4.49e-14 A"},
     {WDR_MODEL_SPLINE, "schlick", 3, 1, 0, CHECK_ANALOG, 3.036, "auto's shifted: its table says 0.47 %"},
-    /* item 3: the fixed 60 mV ramp margin at twice the mismatch: late crossers read as flat */
-    {WDR_MODEL_SPLINE, "reinhard", 1, 2, 0, CHECK_PPM, 4534, "flat response, 87 pixels"},
-    {WDR_MODEL_SPLINE, "reinhard", 1, 2, 1, CHECK_PPM, 2345, "flat response, 45 pixels"},
+    /* item 3 (the margin sized from the chip) brought the 2x cells' flags to 0 (were 4,534 and
+     * 2,345 ppm, "flat response", with the fixed 60 mV); the compact form at 2x stays open */
     {WDR_MODEL_SPLINE, "reinhard", 1, 2, 0, CHECK_ANALOG, 2.312, "compact at 2x mismatch"},
     {WDR_MODEL_SPLINE, "reinhard", 1, 2, 1, CHECK_FLOOR, 1.457, "compact at 2x mismatch, 3.1e-9 A"},
     /* item 5: one planted defect not flagged on this chip */
     {WDR_MODEL_SPLINE, "schlick", 3, 1, 0, CHECK_FOUND, 1, "11 of 12 found"},
     {WDR_MODEL_SPLINE, "schlick", 3, 1, 1, CHECK_FOUND, 1, "11 of 12 found"},
-    /* item 2: the paper's 4-parameter model conceals a quarter of the chip, or refuses one
-     * converter condition and serves the other */
-    {WDR_MODEL_COMPLEX4, "reinhard", 2, 1, 1, CHECK_PPM, 231551, "reversed slope, 4446 pixels"},
-    {WDR_MODEL_COMPLEX4, "drago", 1, 1, 0, CHECK_PPM, 236658, "ill-conditioned, 4544 pixels"},
-    {WDR_MODEL_COMPLEX4, "drago", 1, 1, 1, CHECK_ACCEPTED, 0, "12-bit refused, analog served"},
+    /* item 2: complex4 now flags no healthy pixel (its least squares held falling), but its
+     * 12-bit figure with every pixel fitted is above 1.2x the floor; exponential, served now,
+     * is far above it at the dark end */
+    {WDR_MODEL_COMPLEX4, "reinhard", 1, 1, 1, CHECK_FLOOR, 1.308, "poly-5 of the held fit, 9.44e-12 A"},
+    {WDR_MODEL_COMPLEX4, "reinhard", 2, 1, 1, CHECK_FLOOR, 1.314, "poly-5 of the held fit, 9.44e-12 A"},
+    {WDR_MODEL_COMPLEX4, "exponential", 1, 1, 1, CHECK_FLOOR, 3.83, "the model itself, 1.2e-12 A"},
     /* lsq's poly-5 table at 12 bits (dark end, 2.3e-11 A) */
     {WDR_MODEL_LSQ, "reinhard", 3, 1, 1, CHECK_FLOOR, 4.182, "poly-5 table of the lsq model"},
     {0, NULL, 0, 0, 0, 0, 0, NULL}, /* end */
@@ -128,8 +129,12 @@ static const refusal *find_refusal(const cm_cell *c)
     return NULL;
 }
 
+/* A listed failure may not grow past this factor of its listed figure: a known miss that gets
+ * much worse is a new fault (a 20 mV margin took a listed 4,534 ppm to 186,106 unseen). */
+#define KNOWN_WORSE 1.25
+
 /* One check of one cell: ok, a listed failure (KNOWN), a listed failure that now holds (FIXED:
- * fails, the list must shrink), or a new failure. */
+ * fails, the list must shrink), a listed failure grown past KNOWN_WORSE (fails), or a new failure. */
 static void judge(const cm_cell *c, int side, enum check k, int ok, double figure, const char *limit)
 {
     const known *e = find_known(c, side, k);
@@ -141,6 +146,9 @@ static void judge(const cm_cell *c, int side, enum check k, int ok, double figur
     if (ok) {
         fixed++, failures++;
         printf(" FIXED: now holds; remove it from known_failures (listed at %.4g)\n", e->figure);
+    } else if (e && figure > KNOWN_WORSE * e->figure + 1e-9) { /* listed, but worse than listed */
+        failures++;
+        printf(" FAIL: listed at %.4g, now more than %.3gx that (%s)\n", e->figure, KNOWN_WORSE, e->note);
     } else if (e) {
         knowns++;
         printf(" KNOWN (listed at %.4g: %s)\n", e->figure, e->note);
