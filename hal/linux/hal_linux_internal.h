@@ -5,6 +5,7 @@
 #include "hal.h"
 #include "hal_linux_board.h"
 #include "hal_linux_gpio.h"
+#include <signal.h>
 #include <stdio.h>
 
 /* The board hal_init brings up: set before it (wdr-board --config). */
@@ -46,6 +47,8 @@ void lx_shutdown(void);
 
 /* hal_reset's exit status (EX_TEMPFAIL), which wdr-board.service restarts. */
 #define LX_EXIT_RESET 75
+/* Wakes the USB threads out of a blocking FunctionFS call when the board stops (hal_linux_usb.c). */
+#define LX_USB_WAKE_SIGNAL SIGUSR2
 
 /* Wake hal_wait_for_event from a signal handler (async-signal-safe). */
 void lx_wake_from_signal(void);

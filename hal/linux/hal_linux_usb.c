@@ -13,10 +13,13 @@
 #include <linux/aio_abi.h>
 #include <linux/usb/functionfs.h>
 #include <pthread.h>
+#include <signal.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/ioctl.h>
 #include <sys/syscall.h>
+#include <time.h>
 #include <unistd.h>
 
 #define RX_RING 65536u    /* power of two */
@@ -38,7 +41,9 @@ static struct {
     int tx_filling;
     int tx_refused; /* hal_usb_write said BUSY: tell the firmware when there is room */
     pthread_t threads[3]; /* ep0, OUT, IN */
+    atomic_int ended[3]; /* set by a thread as it returns: lx_usb_close joins it then */
     int n_threads;
+    atomic_int stopping; /* lx_usb_close: the ep0 and IN threads return at their next wake */
 } U = {.lock = PTHREAD_MUTEX_INITIALIZER, .cond = PTHREAD_COND_INITIALIZER, .ep0 = -1, .ep_in = -1, .ep_out = -1,
        .in_packet = HS_PACKET, .out_packet = HS_PACKET};
 
@@ -160,18 +165,20 @@ static void *ep0_main(void *arg)
 {
     (void)arg;
     struct usb_functionfs_event ev[4];
-    for (;;) {
+    while (!atomic_load(&U.stopping)) {
         ssize_t n = read(U.ep0, ev, sizeof ev);
         if (n < 0 && (transient(errno) || errno == EL2HLT))
-            continue;
+            continue; /* EINTR: perhaps lx_usb_close's wake; the loop's test tells */
         if (n <= 0) { /* ep0 closed under us: nothing more will come */
             fprintf(stderr, "wdr-board: read %s/ep0: %s\n", lx_board_get()->functionfs, n ? strerror(errno) : "end of file");
             set_connected(0);
-            return NULL;
+            break;
         }
         for (ssize_t i = 0; i < n / (ssize_t)sizeof ev[0]; i++)
             on_ep0_event(&ev[i]);
     }
+    atomic_store(&U.ended[0], 1);
+    return NULL;
 }
 
 /* Copy a received packet into the ring, waiting for room: the host is NAKed meanwhile. */
@@ -275,7 +282,7 @@ static int write_all(const uint8_t *p, size_t len)
 {
     while (len > 0) {
         ssize_t n = write(U.ep_in, p, len);
-        if (n < 0 && transient(errno))
+        if (n < 0 && transient(errno) && !atomic_load(&U.stopping))
             continue;
         if (n <= 0)
             return -1;
@@ -285,16 +292,17 @@ static int write_all(const uint8_t *p, size_t len)
     return 0;
 }
 
-/* Take the filled buffer for sending, handing the other one to hal_usb_write. */
-static void unlock(void *mutex) { pthread_mutex_unlock(mutex); }
-
+/* Take the filled buffer for sending, handing the other one to hal_usb_write; 0 when
+ * lx_usb_close stops the thread. */
 static size_t tx_take(const uint8_t **p, uint16_t *packet)
 {
     pthread_mutex_lock(&U.lock);
-    pthread_cleanup_push(unlock, &U.lock); /* lx_usb_close cancels this thread in the wait */
-    while (!U.tx_fill)
+    while (!U.tx_fill && !atomic_load(&U.stopping))
         pthread_cond_wait(&U.cond, &U.lock);
-    pthread_cleanup_pop(0);
+    if (atomic_load(&U.stopping)) {
+        pthread_mutex_unlock(&U.lock);
+        return 0;
+    }
     size_t len = U.tx_fill;
     *p = U.tx[U.tx_filling];
     *packet = U.in_packet;
@@ -315,12 +323,15 @@ static void *tx_main(void *arg)
         const uint8_t *p;
         uint16_t packet;
         size_t len = tx_take(&p, &packet);
+        if (len == 0)
+            break;
         /* A transfer that fills its last packet needs a zero-length packet to end it; the
          * packet is the endpoint's at this link's speed (64, 512 or 1024 bytes). */
         if (write_all(p, len) == 0 && len % packet == 0 && write(U.ep_in, p, 0) < 0) {
             /* the host went away: ep0 reports the reset */
         }
     }
+    atomic_store(&U.ended[2], 1);
     return NULL;
 }
 
@@ -345,8 +356,23 @@ static int write_ep0(const void *data, size_t len, const char *what)
     return lx_fail("write", path);
 }
 
+/* The signal that wakes a thread out of a blocking FunctionFS read or write (EINTR): it does
+ * nothing else, and has no SA_RESTART so that the call returns. */
+static void on_wake(int sig) { (void)sig; }
+
+static void catch_wake_signal(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_wake;
+    sigemptyset(&sa.sa_mask);
+    sigaction(LX_USB_WAKE_SIGNAL, &sa, NULL);
+}
+
 int lx_usb_init(void)
 {
+    catch_wake_signal();
+    atomic_store(&U.stopping, 0);
     U.ep0 = open_ep("ep0", O_RDWR);
     if (U.ep0 < 0)
         return WDR_E_IO;
@@ -359,6 +385,7 @@ int lx_usb_init(void)
         return WDR_E_IO;
     void *(*mains[3])(void *) = {ep0_main, rx_main, tx_main};
     for (int i = 0; i < 3; i++) {
+        atomic_store(&U.ended[i], 0);
         int err = pthread_create(&U.threads[i], NULL, mains[i], NULL);
         if (err) {
             errno = err;
@@ -376,20 +403,34 @@ static void close_ep(int *fd)
     *fd = -1;
 }
 
-/* The ep0 and IN threads are cancelled where they wait (read, write, the condition); the OUT
+/* Wake thread i until it has returned, then join it. The signal is sent again every
+ * millisecond: one sent just before the thread enters its read or write would be lost. */
+static void stop_thread(int i)
+{
+    const struct timespec ms = {.tv_sec = 0, .tv_nsec = 1000000};
+    while (!atomic_load(&U.ended[i])) {
+        pthread_kill(U.threads[i], LX_USB_WAKE_SIGNAL);
+        nanosleep(&ms, NULL);
+    }
+    pthread_join(U.threads[i], NULL);
+}
+
+/* The ep0 and IN threads are woken where they wait (read, write: a signal; the condition: a
+ * broadcast) and return. They are not cancelled: a thread cancelled inside a system call
+ * unwinds without unpoisoning its stack, and AddressSanitizer then reports a false
+ * stack-buffer-overflow in sigaltstack as the thread exits (google/sanitizers#1399). The OUT
  * thread's AIO reads end with the endpoint (ESHUTDOWN) and it waits for a host that will not
  * come, until the process exits. Closing ep0 last makes the kernel unbind the gadget. */
 void lx_usb_close(void)
 {
     pthread_mutex_lock(&U.lock);
     U.connected = 0;
+    atomic_store(&U.stopping, 1);
     pthread_cond_broadcast(&U.cond);
     pthread_mutex_unlock(&U.lock);
     for (int i = 0; i < U.n_threads; i++)
-        if (i != 1) { /* 1: rx_main, see above */
-            pthread_cancel(U.threads[i]);
-            pthread_join(U.threads[i], NULL);
-        }
+        if (i != 1) /* 1: rx_main, see above */
+            stop_thread(i);
     U.n_threads = 0;
     close_ep(&U.ep_in);
     close_ep(&U.ep_out);

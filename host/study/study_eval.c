@@ -55,7 +55,10 @@ typedef struct calib {
 
 /* Light levels; the paper models fit 3 or 4 exactly and more by least squares (the dark frame
  * is their reference besides). */
-static int levels_needed(const study_point *p) { return p->n_levels; }
+static int levels_needed(const study_point *p)
+{
+    return p->n_levels;
+}
 
 /* Log-spaced levels over the range, M frames each plus dark; the paper models get the dark
  * frame as their dark-end reference (level 0), as `wdrctl calibrate` does. */
@@ -131,29 +134,6 @@ static int round_coefficients(calib *c, int bits)
     return 1;
 }
 
-/* The BASIS form learns its shared table from at most 512 pixels: a fixed cost per calibration,
- * timed on its own (a second learning, once per coefficient count in this process: the cost
- * depends on the count, not on the point) so the per-megapixel figure does not spread it over the
- * few pixels of a study-sized array. */
-static double basis_learn_time(const calib *c)
-{
-    static double learnt_s[2][WDR_CAL_MAX_COEFFS + 1]; /* [SHIFTED: it learns twice][n] */
-    int n = c->cfg.n_coeffs, shifted = c->cfg.form == WDR_FORM_SHIFTED;
-    int shared = c->cfg.form == WDR_FORM_BASIS || wdr_cal_form_compact((uint16_t)c->cfg.form);
-    if (!shared || n < 1 || n > (int)WDR_CAL_MAX_COEFFS)
-        return 0;
-    if (learnt_s[shifted][n] > 0)
-        return learnt_s[shifted][n];
-    char err[160];
-    wdr_basis b;
-    double t0 = cpu_s();
-    int rc = wdr_cal_basis_learn(&c->res, n, shifted, &b, err, sizeof err);
-    learnt_s[shifted][n] = cpu_s() - t0;
-    if (!rc)
-        wdr_cal_basis_free(&b);
-    return learnt_s[shifted][n];
-}
-
 static int calibrate(const study *s, const study_point *p, study_chip *chip, calib *c, study_result *r)
 {
     char err[160];
@@ -178,13 +158,25 @@ static int calibrate(const study *s, const study_point *p, study_chip *chip, cal
                                                  : acquire_log(s, p, &src, c, err, sizeof err);
     if (rc)
         return snprintf(r->why, sizeof r->why, "acquisition: %s", err), rc;
+    /* The shared forms learn their basis from at most 512 pixels: a fixed cost per calibration, so
+     * the per-megapixel figure must not spread it over the few pixels of a study-sized array. Each
+     * part is timed on its own interval of this very calibration: a learning timed apart and
+     * subtracted from the total came out negative on small chips (issue 21). */
     double t0 = cpu_s();
     if ((rc = wdr_cal_fit_array(&c->lv, &c->cfg, &c->res, err, sizeof err)))
         return snprintf(r->why, sizeof r->why, "fit: %s", err), rc;
-    if ((rc = wdr_cal_build_table(&c->res, chip->b.sensor_id, chip->op.id, &c->table, &c->table_len, err, sizeof err)))
+    double t1 = cpu_s();
+    wdr_basis basis;
+    if ((rc = wdr_cal_table_basis(&c->res, &basis, err, sizeof err)))
         return snprintf(r->why, sizeof r->why, "table: %s", err), rc;
-    double fit_s = cpu_s() - t0, fixed_s = basis_learn_time(c);
-    r->fit_s_per_mp = (fit_s - fixed_s) / ((double)chip->b.width * chip->b.height) * 1e6 + fixed_s;
+    double t2 = cpu_s();
+    rc = wdr_cal_build_table_with(&c->res, &basis, chip->b.sensor_id, chip->op.id, &c->table, &c->table_len, err,
+                                  sizeof err);
+    double t3 = cpu_s();
+    wdr_cal_basis_free(&basis);
+    if (rc)
+        return snprintf(r->why, sizeof r->why, "table: %s", err), rc;
+    r->fit_s_per_mp = ((t1 - t0) + (t3 - t2)) / ((double)chip->b.width * chip->b.height) * 1e6 + (t2 - t1);
     if ((rc = wdr_cal_parse(c->table, c->table_len, &c->tab)))
         return snprintf(r->why, sizeof r->why, "built table does not parse: %s", wdr_strerror(rc)), rc;
     if (!round_coefficients(c, p->coeff_bits))
@@ -391,7 +383,7 @@ static void table_costs(const study *s, const study_point *p, const study_chip *
     uint32_t shared = wdr_cal_shared_bytes(&c->tab.h);
     double coeff_bytes = p->coeff_bits / 8.0;
     if (wdr_cal_form_compact(c->tab.h.form))
-        coeff_bytes = 2; /* int16 coefficients */
+        coeff_bytes = 2;                /* int16 coefficients */
     r->table_bpp = n * coeff_bytes + 1; /* coefficient planes and one flag byte per pixel */
     size_t header = wdr_cal_size(1, 1, 0) - wdr_cal_row_stride(1, 0);
     r->table_bytes = (double)header + shared + (double)full->width * full->height * r->table_bpp;

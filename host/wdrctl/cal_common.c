@@ -25,6 +25,30 @@ const char *cal_form_name(int form)
                                       : "poly";
 }
 
+int cal_parse_flag_limit(const char *text, cal_flag_limit *out)
+{
+    size_t n = strlen(text);
+    int ppm = n > 3 && !strcmp(text + n - 3, "ppm");
+    char num[64];
+    snprintf(num, sizeof num, "%.*s", (int)(ppm ? n - 3 : n), text);
+    long long whole = 0;
+    double v = 0;
+    int bad = n >= sizeof num ||
+              (ppm ? cli_number_double(num, 0, 1e6, &v) : cli_number_long(num, 0, 1LL << 40, &whole)) != CLI_NUM_OK;
+    if (bad)
+        return wdrctl_fail(EX_USAGE,
+                           "option --max-flagged: '%s' must be a whole number of pixels (N, 0 or more) or parts per "
+                           "million of the chip's pixels (Nppm, 0..1e6ppm)",
+                           text);
+    *out = (cal_flag_limit){ppm ? v : (double)whole, ppm, text};
+    return EX_OK;
+}
+
+double cal_flag_limit_pixels(const cal_flag_limit *l, long n_pixels)
+{
+    return l->ppm ? l->value * (double)n_pixels / 1e6 : l->value;
+}
+
 int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o)
 {
     int n_args;
@@ -44,6 +68,9 @@ int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o
                                o->frames_text);
         o->frames = (int)n;
     }
+    rc = cal_parse_flag_limit(o->max_flagged_text ? o->max_flagged_text : CAL_MAX_FLAGGED_DEFAULT, &o->max_flagged);
+    if (rc != EX_OK)
+        return rc;
     /* --device or $WDR_DEVICE: a board when one is named. But --board names the simulator to
      * calibrate: then only an explicit --device sends the run (and its uploads) to a board. */
     const char *env = wdrctl_global.device, *from_env = getenv("WDR_DEVICE");
@@ -135,10 +162,28 @@ int cal_design_for(const wdr_board *b, const char *op_name, double t_int_s, wdr_
     return EX_OK;
 }
 
+int cal_size_margin(const wdr_cal_source *src, const wdr_cal_design *d, wdr_cal_margin_set_fn set, void *ctx,
+                    wdr_cal_margin *m)
+{
+    char err[512];
+    wdr_cal_margin_req req;
+    wdr_cal_margin_req_for(d, GRID_LO, GRID_HI, PROBE_FRAMES, &req);
+    int rc = wdr_cal_margin_size(src, &req, set, ctx, m, err, sizeof err);
+    if (rc)
+        return wdrctl_fail(rc == WDR_E_INVAL ? EX_DATAERR : EX_IOERR, "calibrate: %s", err);
+    fprintf(stderr,
+            "wdrctl: calibration margin %.1f mV (+%.1f us of integration): the latest-crossing pixel at %.3g A "
+            "crosses %.1f mV above the median one (crossing-level spread %.1f mV sd, guard %.1f mV; %d probe "
+            "round%s of %.3g and %.3g A)\n",
+            m->margin_v * 1e3, m->added_s * 1e6, m->dim_a, m->latest_v * 1e3, m->spread_v * 1e3, m->guard_v * 1e3,
+            m->rounds, m->rounds > 1 ? "s" : "", m->dim_a, m->bright_a);
+    return EX_OK;
+}
+
 int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c)
 {
     char err[512];
-    if (wdr_cal_sim_setup(b, o->op_name, o->seed, o->adc, WDR_CAL_MARGIN_V, &c->sim, &c->lut, err, sizeof err))
+    if (wdr_cal_sim_setup(b, o->op_name, o->seed, o->adc, WDR_CAL_MARGIN_START_V, &c->sim, &c->lut, err, sizeof err))
         return wdrctl_fail(EX_CONFIG, "simulated chip for operator '%s': %s", o->op_name, err);
     if (!o->dac)
         wdr_sim_set_effect(c->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
@@ -147,6 +192,14 @@ int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c)
         wdr_sim_set_effect(c->sim, temporal[k], WDR_FX_ON);
     c->ss = (wdr_cal_simsrc){c->sim, o->adc, 1000};
     int rc = cal_design_for(b, o->op_name, wdr_sim_integration_time(c->sim), &c->design);
+    if (rc == EX_OK) { /* the margin from the chip's frames, then the design for the ramp it made */
+        wdr_cal_sim_margin m = {c->sim, b, o->op_name, c->lut};
+        wdr_cal_source src = {b->width, b->height, wdr_cal_sim_capture, &c->ss};
+        rc = cal_size_margin(&src, &c->design, wdr_cal_sim_set_margin, &m, &c->margin);
+        c->lut = m.lut;
+    }
+    if (rc == EX_OK)
+        rc = cal_design_for(b, o->op_name, wdr_sim_integration_time(c->sim), &c->design);
     if (rc != EX_OK)
         cal_close_sim(c);
     return rc;
@@ -274,7 +327,7 @@ static int probe_given(const cal_opts *o, const wdr_cal_source *src, cal_run *r,
 /* Currents as given (--currents, --levels-file), or chosen from a probe of the source. */
 int cal_plan_currents(const cal_opts *o, const wdr_cal_source *src, cal_run *r, int n_cur)
 {
-    double amps[WDR_CAL_MAX_LEVELS];
+    double amps[WDR_CAL_MAX_LEVELS] = {0};
     int n = 0, rc = EX_OK;
     if (o->currents)
         rc = parse_current_list(o->currents, "--currents", amps, &n);
@@ -282,6 +335,11 @@ int cal_plan_currents(const cal_opts *o, const wdr_cal_source *src, cal_run *r, 
         rc = read_levels_file(o->levels_file, amps, &n);
     if (rc != EX_OK)
         return rc;
+    /* a paper model that cannot serve the operator's designed response is refused before any
+     * frame is taken (issue 19): the user spends neither the probe nor the calibration on it */
+    char why[1024];
+    if (wdr_cal_design_check(r->cfg.design, &r->cfg, n_cur, amps, n, MIN_SLOPE_CODES, why, sizeof why))
+        return wdrctl_fail(EX_DATAERR, "calibrate: %s", why);
     if (n) {
         r->choice.n = 0;
         if (r->cfg.use_dark_ref)

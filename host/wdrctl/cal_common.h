@@ -5,6 +5,7 @@
 #include "board.h"
 #include "cal_design.h"
 #include "cal_engine.h"
+#include "cal_margin.h"
 #include "cal_select.h"
 #include "wdrctl.h"
 #include <stddef.h>
@@ -28,12 +29,28 @@ int cal_min_select(int model, int n_coeffs);
 /* "1.23 %" for a finite percentage, else "n/a (why)": no NaN or Inf reaches a printed figure. */
 const char *cal_pct_text(double pct, const char *why, char *buf, size_t cap);
 
+/* calibrate --max-flagged N|Nppm: the most pixels the fit may flag (N pixels, or N parts per
+ * million of the chip) before calibrate fails with EX_DATAERR and writes and uploads nothing. */
+typedef struct cal_flag_limit {
+    double value; /* pixels, or ppm of the chip's pixels when ppm is set */
+    int ppm;
+    const char *text; /* as given (or the default) */
+} cal_flag_limit;
+#define CAL_MAX_FLAGGED_DEFAULT "100ppm"
+/* "N" (a whole number of pixels) or "Nppm" (a number >= 0 of parts per million).
+ * @return EX_OK, or EX_USAGE with the message naming the option and the value */
+int cal_parse_flag_limit(const char *text, cal_flag_limit *out);
+/* The limit in pixels on a chip of n_pixels (ppm * n_pixels / 1e6 for a rate: not rounded). */
+double cal_flag_limit_pixels(const cal_flag_limit *l, long n_pixels);
+
 typedef struct cal_opts {
     const char *board, *op_name, *models, *currents, *levels_file, *out, *outdir, *device, *lut;
     int select_n, frames, adc, dac, upload, json, sample, out_scale;
     int noise;       /* simulated chip: temporal noise (shot, kTC, read); calibrate --noise, fpn report per condition */
     int noise_asked; /* --noise was given (a board has its own noise: calibrate --device refuses it) */
     const char *frames_text; /* --frames M or auto */
+    const char *max_flagged_text; /* calibrate --max-flagged N|Nppm */
+    cal_flag_limit max_flagged;   /* parsed (default CAL_MAX_FLAGGED_DEFAULT) */
     int frames_auto;         /* --frames auto (the default): chosen from the probe's measured noise */
     int form;                /* enum wdr_cal_form; CAL_FORM_AUTO (the default): chosen by the target */
     uint64_t seed;
@@ -78,6 +95,7 @@ typedef struct sim_chip {
     uint8_t *lut;
     wdr_cal_simsrc ss;
     wdr_cal_design design; /* the chip's designed response (end slopes, quantisation floor) */
+    wdr_cal_margin margin; /* the calibration margin its ramp carries, sized from its frames */
 } sim_chip;
 
 typedef struct cal_run {
@@ -90,6 +108,7 @@ typedef struct cal_run {
     double lo, hi;
     int frames;                  /* frames per level used (0: o->frames) */
     wdr_cal_frames_choice why;   /* how --frames auto chose (frames 0: not chosen) */
+    wdr_cal_margin margin;       /* the ramp's calibration margin, as sized (rounds 0: none sized) */
 } cal_run;
 
 /* --frames auto: a contrast error of this much from temporal noise at any level (%: half the eye's 1 %), and the most
@@ -114,7 +133,13 @@ int cal_load_board(const char *name, wdr_board *b);
 /* The designed response of board b under operator op_name for a LUT of integration time t_int_s
  * (0: the ramp design's), read at the middle row. @return a sysexits code */
 int cal_design_for(const wdr_board *b, const char *op_name, double t_int_s, wdr_cal_design *d);
+/* The simulated chip, its ramp's calibration margin sized from its own frames (cal_margin.h:
+ * the latest-crossing pixel crosses at GRID_LO, the dimmest level calibrate may take). */
 int cal_open_sim(const cal_opts *o, const wdr_board *b, sim_chip *c);
+/* Size the margin of the LUT the source images with (set puts a LUT with a margin in front of
+ * it), print the margin chosen and its cost. @return a sysexits code; the failure is printed */
+int cal_size_margin(const wdr_cal_source *src, const wdr_cal_design *d, wdr_cal_margin_set_fn set, void *ctx,
+                    wdr_cal_margin *m);
 void cal_close_sim(sim_chip *c);
 wdr_cal_progress_fn cal_progress_fn(void);
 

@@ -1,6 +1,6 @@
 /* wdrctl calibrate: fixed-pattern-noise calibration of the simulator itself (default) or of a
  * board (--device): a simulated board sets its illuminant, a real one asks a person to set each
- * light level. The frame source for a board is host/cal/cal_board_source.c. */
+ * light level. The frame source for a board is host/cal/acquire/cal_board_source.c. */
 #include "cal_board_source.h"
 #include "cal_common.h"
 #include "cal_form_auto.h"
@@ -31,40 +31,58 @@ static int prompt_level(double amps)
     return ch == EOF ? WDR_E_IO : WDR_OK;
 }
 
-/* The LUT file the board will image with, stored with the calibration margin. */
-static int upload_lut_with_margin(device_src *d, const char *path)
+/* The LUT file the board will image with, stored with the calibration margin this chip needs
+ * (sized from the board's own frames: cal_size_margin). */
+static int upload_lut_with_margin(device_src *d, const char *path, const wdr_cal_source *src,
+                                  const wdr_cal_design *design, wdr_cal_margin *m)
 {
     uint8_t *buf;
     size_t len;
-    char err[512];
-    double added_s, done_v;
     if (wdr_read_file(path, &buf, &len) != WDR_OK)
         return wdrctl_fail(EX_NOINPUT, "%s: cannot read LUT", path);
-    int rc = wdr_cal_board_store_lut(&d->board, buf, len, &added_s, &done_v, err, sizeof err);
+    wdr_cal_board_lut l = {&d->board, buf, len};
+    fprintf(stderr, "wdrctl: %s: sizing its calibration margin on the board's frames\n", path);
+    int rc = cal_size_margin(src, design, wdr_cal_board_set_margin, &l, m);
     free(buf);
-    if (rc == WDR_E_INVAL || rc == WDR_E_NOMEM)
-        return wdrctl_fail(EX_DATAERR, "%s: %s", path, rc == WDR_E_NOMEM ? "out of memory" : err);
+    if (rc == EX_OK)
+        fprintf(stderr, "wdrctl: %s stored with a %.1f mV calibration margin (+%.3g s of integration)\n", path,
+                m->margin_v * 1e3, m->added_s);
+    return rc;
+}
+
+/* A board without a LUT refuses every capture ("refused by the board" from the first frame):
+ * its STATUS says so before anything is lit or measured. */
+static int require_lut(device_src *d, const char *address)
+{
+    int has_lut, rc = wdr_cal_board_has_lut(&d->board, &has_lut);
     if (rc)
         return wdrctl_conn_fail(&d->conn, rc);
-    fprintf(stderr, "wdrctl: %s stored with a %.0f mV calibration margin (+%.3g s of integration)\n", path,
-            done_v * 1e3, added_s);
+    if (!has_lut)
+        return wdrctl_fail(EX_CONFIG,
+                           "calibrate: no LUT on the board: upload one or give --lut (%s reports no active "
+                           "LUT slot in its STATUS, and captures nothing without one)",
+                           address);
     return EX_OK;
 }
 
+/* One connection for the whole run (LUT, probe, levels, verification, upload, scene put back):
+ * a board that serves one host (wdr-simboard --once) serves all of it. --wait as for every
+ * board command. */
 static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
 {
     memset(d, 0, sizeof *d);
-    int rc = wdrctl_connect(o->device, wdrctl_global.timeout_ms, wdrctl_global.retries, &d->conn);
+    int rc = wdrctl_connect_wait(o->device, wdrctl_global.timeout_ms, wdrctl_global.retries, wdrctl_global.wait_ms,
+                                 &d->conn);
     if (rc != EX_OK)
         return rc;
     const wdr_info *in = &d->conn.c->info;
     if (wdr_cal_board_open(&d->board, d->conn.c, prompt_level, src) != WDR_OK)
         return wdrctl_fail(EX_OSERR, "out of memory for a %ux%u frame", in->width, in->height);
     if (!d->board.simulated && !o->currents && !o->levels_file)
-        return wdrctl_fail(EX_USAGE, "calibrate: %s sets no light itself: give the levels you will set with "
-                           "--currents A,B,.. or --levels-file FILE (you are asked for each)", o->device);
-    if (o->lut && (rc = upload_lut_with_margin(d, o->lut)) != EX_OK)
-        return rc;
+        return wdrctl_fail(EX_USAGE,
+                           "calibrate: %s sets no light itself: give the levels you will set with "
+                           "--currents A,B,.. or --levels-file FILE (you are asked for each)",
+                           o->device);
     return EX_OK; /* frames come raw (wdr_client_capture_raw): no table is changed to measure */
 }
 
@@ -82,7 +100,7 @@ static int close_device(device_src *d, int rc)
     return rc;
 }
 
-/* ---- verification: the figures of host/cal/cal_metrics.h on fresh frames ---- */
+/* ---- verification: the figures of host/cal/metrics/cal_metrics.h on fresh frames ---- */
 
 #define VERIFY_CURRENTS 7      /* log-spaced over the calibrated range, about one per decade */
 #define VERIFY_MAX_FRAMES 4    /* frames averaged per verification frame (at most the calibration's) */
@@ -133,8 +151,33 @@ static int verify(const cal_opts *o, const wdr_cal_source *src, const cal_run *r
     return EX_OK;
 }
 
-static cJSON *verification_json(const verify_ctx *v, const verify_result *vr)
+/* Pixel frames the display error of a decade left out: its currents' pixels less those it used. */
+static long display_left_out(const verify_result *vr, const wdr_display_error *dec, long np)
 {
+    long points = 0;
+    for (int k = 0; k < vr->n; k++)
+        points += vr->pt[k].x >= dec->x_lo * (1 - 1e-9) && vr->pt[k].x < dec->x_hi * (1 - 1e-9);
+    return points * np - dec->used;
+}
+
+/* What each verification figure left out, per current: flagged pixels and unresolved ones. */
+static void add_left_out_json(cJSON *j, const verify_result *vr)
+{
+    double a[3][VERIFY_CURRENTS];
+    for (int k = 0; k < vr->n; k++) {
+        const wdr_eval_point *p = &vr->pt[k];
+        a[0][k] = (double)(p->before.excluded + p->before.unresolved);
+        a[1][k] = (double)(p->table.excluded + p->table.unresolved);
+        a[2][k] = (double)p->total.left_out;
+    }
+    cJSON_AddItemToObject(j, "pixels_left_out_before", cJSON_CreateDoubleArray(a[0], vr->n));
+    cJSON_AddItemToObject(j, "pixels_left_out_after_table", cJSON_CreateDoubleArray(a[1], vr->n));
+    cJSON_AddItemToObject(j, "pixels_left_out_one_frame", cJSON_CreateDoubleArray(a[2], vr->n));
+}
+
+static cJSON *verification_json(const verify_ctx *v, const cal_run *r, const verify_result *vr)
+{
+    long np = (long)r->res.width * r->res.height;
     cJSON *j = cJSON_CreateObject();
     double a[7][VERIFY_CURRENTS];
     wdr_display_error per[VERIFY_CURRENTS], dec[8];
@@ -151,6 +194,7 @@ static cJSON *verification_json(const verify_ctx *v, const verify_result *vr)
     cJSON_AddNumberToObject(j, "frames_averaged", vr->frames);
     for (int q = 0; q < 7; q++)
         cJSON_AddItemToObject(j, names[q], cJSON_CreateDoubleArray(a[q], vr->n));
+    add_left_out_json(j, vr);
     int nd = wdr_display_by_decade(per, vr->n, dec, 8);
     cJSON *d = cJSON_AddArrayToObject(j, "display_error_per_decade");
     for (int k = 0; k < nd; k++) {
@@ -160,11 +204,16 @@ static cJSON *verification_json(const verify_ctx *v, const verify_result *vr)
         cJSON_AddNumberToObject(e, "mean_levels", dec[k].mean_levels);
         cJSON_AddNumberToObject(e, "mean_abs_levels", dec[k].mean_abs_levels);
         cJSON_AddNumberToObject(e, "frac_off_by_more_than_1_level", dec[k].frac_over_1);
+        cJSON_AddNumberToObject(e, "pixels_left_out", (double)display_left_out(vr, &dec[k], np));
         cJSON_AddItemToArray(d, e);
     }
-    cJSON_AddStringToObject(j, "note", "figures of host/cal/cal_metrics.h (as wdrctl fpn report): contrast error "
-                                       "100 sd of ln(x_hat/x) on fresh frames, averaged over frames_averaged; total "
-                                       "and temporal from single frames");
+    cJSON_AddStringToObject(j, "note",
+                            "figures of host/cal/metrics/cal_metrics.h (as wdrctl fpn report): contrast error "
+                            "100 sd of ln(x_hat/x) on fresh frames, averaged over frames_averaged; total "
+                            "and temporal from single frames. Every figure leaves out the pixels_flagged "
+                            "pixels (above), and the contrast errors also those with no x_hat within a decade of "
+                            "the range: pixels_left_out_* count both, per current (per decade: summed "
+                            "over its currents)");
     return j;
 }
 
@@ -196,22 +245,87 @@ static int write_file(const char *path, const uint8_t *buf, size_t len)
     return fclose(f) ? wdrctl_fail(EX_IOERR, "%s: write failed", path) : EX_OK;
 }
 
-static cJSON *verification_json(const verify_ctx *v, const verify_result *vr);
-static cJSON *nominal_json(const cal_run *r);
+/* ---- flagged pixels: the count by reason, and --max-flagged ---- */
+
+/* "dead 3, stuck 0, hot 2, saturated 0, unfit 4 (reversed slope 4)": one kind per pixel (cal_bad.c). */
+static const char *flag_reasons(const wdr_cal_result *res, char *buf, size_t cap)
+{
+    char part[96];
+    const char *sep = " (";
+    buf[0] = 0;
+    for (int b = 0; b < WDR_CAL_FLAG_KINDS; b++) {
+        snprintf(part, sizeof part, "%s%s %ld", b ? ", " : "", wdr_cal_flag_name(b), res->n_flag[b]);
+        strncat(buf, part, cap - strlen(buf) - 1);
+    }
+    for (int st = 1; st < WDR_FIT_COUNT; st++)
+        if (res->n_status[st]) {
+            snprintf(part, sizeof part, "%s%s %ld", sep, wdr_fit_status_name(st), res->n_status[st]);
+            strncat(buf, part, cap - strlen(buf) - 1);
+            sep = ", ";
+        }
+    if (sep[0] == ',')
+        strncat(buf, ")", cap - strlen(buf) - 1);
+    return buf;
+}
+
+static long chip_pixels(const cal_run *r)
+{
+    return (long)r->res.width * r->res.height;
+}
+
+static double flagged_ppm(const cal_run *r)
+{
+    return 1e6 * (double)r->res.n_bad / (double)chip_pixels(r);
+}
+
+static int within_flag_limit(const cal_opts *o, const cal_run *r)
+{
+    return (double)r->res.n_bad <= cal_flag_limit_pixels(&o->max_flagged, chip_pixels(r));
+}
+
+/* More flagged than --max-flagged: EX_DATAERR (the chip's frames do not calibrate), with the
+ * count by reason; nothing is written or uploaded, so the board keeps the tables it has. */
+static int fail_flagged(const cal_opts *o, const cal_run *r)
+{
+    char why[512];
+    return wdrctl_fail(EX_DATAERR,
+                       "calibrate: %ld of %ld pixels flagged (%.4g ppm), more than --max-flagged %s allows (%.4g "
+                       "pixels): by kind %s; no table written%s",
+                       r->res.n_bad, chip_pixels(r), flagged_ppm(r), o->max_flagged.text,
+                       cal_flag_limit_pixels(&o->max_flagged, chip_pixels(r)), flag_reasons(&r->res, why, sizeof why),
+                       o->upload ? " or uploaded: the board keeps its tables" : "");
+}
+
+static void print_text_summary(const cal_opts *o, const cal_run *r)
+{
+    const wdr_cal_result *res = &r->res;
+    char why[512], pct[64];
+    printf("model %s, table form %s (%d coefficients), %ld of %ld pixels flagged (%.4g ppm; --max-flagged %s allows "
+           "%.4g)\n",
+           cal_model_name(res->model), cal_form_name(r->cfg.form),
+           r->cfg.form == WDR_FORM_MOEBIUS ? 3 : r->cfg.n_coeffs, res->n_bad, chip_pixels(r), flagged_ppm(r),
+           o->max_flagged.text, cal_flag_limit_pixels(&o->max_flagged, chip_pixels(r)));
+    if (res->n_bad)
+        printf("flagged by kind: %s\n", flag_reasons(res, why, sizeof why));
+    printf("currents:");
+    for (int k = 0; k < r->choice.n; k++)
+        printf(" %.4g", r->choice.amps[k]);
+    printf(" A (0: dark reference)\nworst contrast error at selection: %s",
+           cal_pct_text(r->choice.worst_pct, "levels given, not selected", pct, sizeof pct));
+    if (isfinite(r->choice.worst_pct)) /* judged on a sample: what it left out is counted there */
+        printf(" (judged on %ld pixels sampled from the probe; %ld of them flagged and left out)", r->choice.judged,
+               r->choice.left_out);
+    printf("\nframes per level: %d%s\n", r->frames, r->why.frames ? " (auto)" : "");
+}
 
 static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx *v, const verify_result *vr)
 {
     const wdr_cal_result *res = &r->res;
     if (!o->json) {
-        printf("model %s, table form %s (%d coefficients), %ld of %ld pixels flagged\ncurrents:", cal_model_name(res->model),
-               cal_form_name(r->cfg.form), r->cfg.form == WDR_FORM_MOEBIUS ? 3 : r->cfg.n_coeffs,
-               res->n_bad, (long)res->width * res->height);
-        for (int k = 0; k < r->choice.n; k++)
-            printf(" %.4g", r->choice.amps[k]);
-        char pct[64];
-        printf(" A (0: dark reference)\nworst contrast error at selection: %s\n",
-               cal_pct_text(r->choice.worst_pct, "levels given, not selected", pct, sizeof pct));
-        printf("frames per level: %d%s\n", r->frames, r->why.frames ? " (auto)" : "");
+        print_text_summary(o, r);
+        if (r->margin.rounds)
+            printf("calibration margin: %.1f mV, +%.1f us of integration (sized from the chip's frames)\n",
+                   r->margin.margin_v * 1e3, r->margin.added_s * 1e6);
         return;
     }
     cJSON *j = cJSON_CreateObject();
@@ -224,8 +338,16 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
     if (isfinite(r->choice.worst_pct)) {
         cJSON_AddNumberToObject(j, "selection_worst_pct", r->choice.worst_pct);
         cJSON_AddNumberToObject(j, "selection_worst_at_A", r->choice.worst_at);
+        cJSON_AddNumberToObject(j, "selection_pixels_judged", (double)r->choice.judged);
+        cJSON_AddNumberToObject(j, "selection_pixels_left_out", (double)r->choice.left_out);
     }
+    cJSON_AddNumberToObject(j, "pixels", (double)chip_pixels(r));
     cJSON_AddNumberToObject(j, "pixels_flagged", (double)res->n_bad);
+    cJSON_AddNumberToObject(j, "pixels_flagged_ppm", flagged_ppm(r));
+    cJSON *lim = cJSON_AddObjectToObject(j, "max_flagged");
+    cJSON_AddStringToObject(lim, "given", o->max_flagged.text);
+    cJSON_AddNumberToObject(lim, "pixels", cal_flag_limit_pixels(&o->max_flagged, chip_pixels(r)));
+    cJSON_AddBoolToObject(lim, "within", within_flag_limit(o, r));
     cJSON_AddNumberToObject(j, "frames_per_level", r->frames);
     if (r->why.frames) { /* --frames auto: the level that decided and its figures */
         cJSON *a = cJSON_AddObjectToObject(j, "frames_auto");
@@ -237,17 +359,26 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
         cJSON_AddNumberToObject(a, "frames_needed", r->why.needed);
         cJSON_AddBoolToObject(a, "capped", r->why.capped);
     }
-    static const char *flag_names[] = {"dead", "stuck", "hot", "saturated", "unfit"};
-    cJSON *f = cJSON_AddObjectToObject(j, "flags");
-    for (int b = 0; b < 5; b++)
-        cJSON_AddNumberToObject(f, flag_names[b], (double)res->n_flag[b]);
+    if (r->margin.rounds) { /* the ramp's calibration margin, sized from the chip's frames */
+        cJSON *m = cJSON_AddObjectToObject(j, "calibration_margin");
+        cJSON_AddNumberToObject(m, "margin_mV", r->margin.margin_v * 1e3);
+        cJSON_AddNumberToObject(m, "added_integration_us", r->margin.added_s * 1e6);
+        cJSON_AddNumberToObject(m, "latest_above_median_mV", r->margin.latest_v * 1e3);
+        cJSON_AddNumberToObject(m, "crossing_level_sd_mV", r->margin.spread_v * 1e3);
+        cJSON_AddNumberToObject(m, "guard_mV", r->margin.guard_v * 1e3);
+        cJSON_AddNumberToObject(m, "at_A", r->margin.dim_a);
+        cJSON_AddNumberToObject(m, "probe_rounds", r->margin.rounds);
+    }
+    cJSON *f = cJSON_AddObjectToObject(j, "flags"); /* one kind per pixel: these add up to pixels_flagged */
+    for (int b = 0; b < WDR_CAL_FLAG_KINDS; b++)
+        cJSON_AddNumberToObject(f, wdr_cal_flag_name(b), (double)res->n_flag[b]);
     cJSON *why = cJSON_AddObjectToObject(j, "unfit_reasons");
     for (int st = 1; st < WDR_FIT_COUNT; st++)
         if (res->n_status[st])
             cJSON_AddNumberToObject(why, wdr_fit_status_name(st), (double)res->n_status[st]);
     cJSON_AddNumberToObject(j, "table_bytes", (double)r->table_len);
     if (vr->n)
-        cJSON_AddItemToObject(j, "verification", verification_json(v, vr));
+        cJSON_AddItemToObject(j, "verification", verification_json(v, r, vr));
     cJSON_AddItemToObject(j, "nominal_response", nominal_json(r));
     char *text = cJSON_Print(j);
     printf("%s\n", text);
@@ -278,6 +409,10 @@ static int calibrate_with(const cal_opts *o, const wdr_cal_source *src, cal_run 
     int rc = cal_plan_currents(o, src, r, o->select_n ? o->select_n : cal_default_currents(model));
     if (rc == EX_OK)
         rc = cal_acquire_and_fit(o, src, r, sensor_id, op_id);
+    if (rc == EX_OK && !within_flag_limit(o, r)) { /* the figures, then the failure: no table leaves */
+        print_summary(o, r, v, &vr);
+        return fail_flagged(o, r);
+    }
     if (rc == EX_OK && o->out)
         rc = write_file(o->out, r->table, r->table_len);
     if (rc == EX_OK)
@@ -294,22 +429,43 @@ static const cli_option calibrate_rows[] = {
     {"models", 0, CLI_STRING, CAL_O(models), "NAME", "the same as --model", .flags = CLI_HIDDEN},
     {"currents", 0, CLI_STRING, CAL_O(currents), "A,B,..", "the light levels, in A per pixel, rising"},
     {"levels-file", 0, CLI_STRING, CAL_O(levels_file), "FILE", "the light levels, one per line (# comments)"},
-    {"select", 0, CLI_INT, CAL_O(select_n), "N", "choose N levels from a probe (the model's least: simple3 3, complex4 and spline 4, polymap 6, lsq 7)", .min = CAL_SELECT_MIN, .max = GRID_LEVELS},
-    CAL_ROW_FRAMES, CAL_ROW_BOARD, CAL_ROW_OPERATOR, CAL_ROW_ADC, CAL_ROW_DAC, CAL_ROW_NOISE,
+    {"select", 0, CLI_INT, CAL_O(select_n), "N",
+     "choose N levels from a probe (the model's least: simple3 3, complex4 and spline 4, polymap 6, lsq 7)",
+     .min = CAL_SELECT_MIN, .max = GRID_LEVELS},
+    CAL_ROW_FRAMES,
+    CAL_ROW_BOARD,
+    CAL_ROW_OPERATOR,
+    CAL_ROW_ADC,
+    CAL_ROW_DAC,
+    CAL_ROW_NOISE,
     {"lut", 0, CLI_STRING, CAL_O(lut), "LUT.bin", "with --device: image with this LUT (stored with a margin)"},
     {"upload", 0, CLI_FLAG, CAL_O(upload), NULL, "with --device: store the table on the board and apply it"},
+    {"max-flagged", 0, CLI_STRING, CAL_O(max_flagged_text), "N|Nppm",
+     "fail (exit 65, no table written or uploaded) when more pixels are flagged: N pixels, or N parts per million "
+     "of the chip (default " CAL_MAX_FLAGGED_DEFAULT ")"},
     CAL_ROW_OUT_SCALE,
     {"form", 0, CLI_CHOICE, CAL_O(form), NULL,
      "table form; auto (default): the smallest that meets 1 % analog and 1.2x the floor for the operator",
-     .choices = cal_forms,
-     .what = "table form"},
-    CAL_ROW_SAMPLE, CAL_ROW_SEED, CAL_ROW_JSON, {0}};
+     .choices = cal_forms, .what = "table form"},
+    CAL_ROW_SAMPLE,
+    CAL_ROW_SEED,
+    CAL_ROW_JSON,
+    {0}};
 
 const cli_command wdrctl_cmd_calibrate = {
-    "calibrate", NULL, 0, 0, "fixed-pattern-noise calibration of the simulated chip, or of a board (--device)",
+    "calibrate",
+    NULL,
+    0,
+    0,
+    "fixed-pattern-noise calibration of the simulated chip, or of a board (--device)",
     "Give -o CAL.bin and/or --upload. A simulated board sets its own light; a real one asks for each level of "
-    "--currents or --levels-file.",
-    calibrate_rows, cmd_calibrate, CLI_CMD_BOARD};
+    "--currents or --levels-file. One connection serves the whole run; the global --wait looks for a board that is "
+    "starting. A board with no LUT is refused up front (exit 78): upload one or give --lut. When the fit flags more "
+    "pixels than --max-flagged, calibrate prints the count by kind and exits 65 (EX_DATAERR: the chip's frames do "
+    "not calibrate) without writing or uploading a table. Every printed figure says how many pixels it left out.",
+    calibrate_rows,
+    cmd_calibrate,
+    CLI_CMD_BOARD};
 
 /* The simulated chip's conditions, as the verification figures hold with them. */
 static const char *sim_conditions(const cal_opts *o)
@@ -375,7 +531,9 @@ int cmd_calibrate(int argc, char **argv)
         verify_ctx v = {.quantised = 1, .temporal = 1, .holds_with = "the board as it runs (its converters and noise)"};
         wdr_cal_design design;
         if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK &&
-            (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK) {
+            (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK &&
+            (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &src, &design, &r.margin)) == EX_OK) &&
+            (rc = require_lut(&d, o.device)) == EX_OK) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits); /* the board's operator is unknown here: basis-8 */
             cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */
             v.can_light = d.board.simulated, v.design = &design;
@@ -403,6 +561,7 @@ int cmd_calibrate(int argc, char **argv)
     verify_ctx v = {.can_light = 1, .quantised = o.adc, .temporal = o.noise, .design = &c.design,
                     .holds_with = sim_conditions(&o)};
     rc = verify_display(&o, &b, &v);
+    r.margin = c.margin;
     if (rc == EX_OK)
         rc = calibrate_with(&o, &src, &r, b.sensor_id, op->id, model, &v);
     cal_free_run(&r);

@@ -3,7 +3,7 @@
  * temporal noise averaged away, and the default (converters and temporal noise on, the frames the
  * calibration averages). Contrast error before and after with the quantisation floor beside it,
  * display-space error per decade, total error (FPN plus temporal), model error, DSNU/PRNU,
- * histograms and test images (the paper's Fig. 4-8). The figures come from host/cal/cal_metrics.h,
+ * histograms and test images (the paper's Fig. 4-8). The figures come from host/cal/metrics/cal_metrics.h,
  * as `wdrctl calibrate --json` and the benchmarks. */
 #include "cal_common.h"
 #include "correct.h"
@@ -126,6 +126,18 @@ static void summarise(const report *rp, const condition *c, model_report *m)
     m->n_dec = wdr_display_by_decade(per, N_EVAL, m->dec, N_DECADES);
 }
 
+static double f_left_model(const wdr_eval_point *p);
+static double f_left_table(const wdr_eval_point *p);
+
+/* The most pixels any printed figure of the model left out, over the judging currents. */
+static double most_left_out(const model_report *m)
+{
+    double most = 0;
+    for (int k = 0; k < N_EVAL; k++)
+        most = fmax(most, fmax(f_left_model(&m->pt[k]), f_left_table(&m->pt[k])));
+    return most;
+}
+
 static int evaluate_model(report *rp, condition *c, model_report *m)
 {
     wdr_eval_opts eo = {.frames = c->o.frames,
@@ -142,11 +154,15 @@ static int evaluate_model(report *rp, condition *c, model_report *m)
     int rc = model_error(rp, c, m);
     fprintf(stderr, "fpn report: %s, %s: worst contrast error %.3g %% (table) at %.3g A, %.3g %% (model)",
             cal_model_name(m->model), c->spec->label, m->worst_table, m->worst_at, m->worst_model);
+    fprintf(stderr, " (leaving out at most %.0f of %ld pixels: %ld flagged, the rest unresolved)", most_left_out(m),
+            (long)m->run.res.width * m->run.res.height, m->run.res.n_bad);
     if (c->o.noise)
         fprintf(stderr, "; one frame with temporal noise %.3g %%, %d frames averaged", m->worst_total_1, c->o.frames);
     if (c->o.adc && !c->o.noise)
         fprintf(stderr, "; %.2fx its floor", m->worst_floor_ratio);
-    fputc('\n', stderr);
+    char kinds[160];
+    fprintf(stderr, "; %ld pixels flagged (%s)\n", m->run.res.n_bad,
+            wdr_cal_flag_counts_text(m->run.res.n_flag, kinds, sizeof kinds));
     return rc;
 }
 
@@ -400,6 +416,19 @@ static double f_before(const wdr_eval_point *p)
 {
     return p->before.sd_pct;
 }
+/* Pixels each figure left out: flagged (excluded) and unresolved (no x_hat within a decade). */
+static double f_left_before(const wdr_eval_point *p)
+{
+    return (double)(p->before.excluded + p->before.unresolved);
+}
+static double f_left_model(const wdr_eval_point *p)
+{
+    return (double)(p->model.excluded + p->model.unresolved);
+}
+static double f_left_table(const wdr_eval_point *p)
+{
+    return (double)(p->table.excluded + p->table.unresolved);
+}
 static double f_beyond(const wdr_eval_point *p)
 {
     return p->before.beyond_frac;
@@ -482,6 +511,11 @@ static cJSON *model_json(const condition *c, const model_report *m)
                             : m->model == WDR_MODEL_COMPLEX4 ? 40
                                                              : 0);
     cJSON_AddNumberToObject(j, "pixels_flagged", (double)r->res.n_bad);
+    cJSON *f = cJSON_AddObjectToObject(j, "flags"); /* one kind per pixel: these add up to pixels_flagged */
+    for (int b = 0; b < WDR_CAL_FLAG_KINDS; b++)
+        cJSON_AddNumberToObject(f, wdr_cal_flag_name(b), (double)r->res.n_flag[b]);
+    cJSON_AddItemToObject(j, "pixels_left_out_after_model", point_array(m->pt, f_left_model));
+    cJSON_AddItemToObject(j, "pixels_left_out_after_table", point_array(m->pt, f_left_table));
     return j;
 }
 
@@ -497,6 +531,7 @@ static cJSON *condition_json(const report *rp, const condition *c)
     cJSON_AddNumberToObject(j, "range_lo_A", c->lo);
     cJSON_AddNumberToObject(j, "range_hi_A", c->hi);
     cJSON_AddItemToObject(j, "contrast_before_pct", point_array(c->m[0].pt, f_before));
+    cJSON_AddItemToObject(j, "pixels_left_out_before", point_array(c->m[0].pt, f_left_before));
     cJSON_AddItemToObject(j, "before_beyond_curve_frac", point_array(c->m[0].pt, f_beyond));
     cJSON_AddItemToObject(j, "quantisation_floor_pct", point_array(c->m[0].pt, f_floor));
     cJSON *models = cJSON_AddArrayToObject(j, "models");
@@ -511,7 +546,10 @@ static void add_notes(cJSON *j)
                             "contrast error: 100 * sd across pixels of ln(x_hat / x); x_hat from the nominal curve's "
                             "inverse of the raw code (before) or the model and its float32 table (after). Pixels "
                             "whose x_hat lies outside the calibrated range are counted in before_beyond_curve_frac "
-                            "(with those more than a decade out, whose inverse is a clamp, left out of the spread)");
+                            "(with those more than a decade out, whose inverse is a clamp, left out of the spread). "
+                            "Flagged pixels are left out of every figure after correction (and of the before figures "
+                            "too): pixels_left_out_* count, per current, the flagged and unresolved pixels a figure "
+                            "left out of the pixels");
     cJSON_AddStringToObject(j, "floor_note",
                             "quantisation floor: 100 * sqrt(2 (1 + s^2) / 12) / |dy/d ln x|, the ADC's rounding and a "
                             "DAC step of s ADC codes in the frame and in the calibration levels, the slope from the "
@@ -536,6 +574,8 @@ static int write_json(const report *rp, const emva *e, double hist_before, doubl
     cJSON_AddNumberToObject(j, "range_hi_A", rp->hi);
     cJSON_AddItemToObject(j, "photocurrents_A", cJSON_CreateDoubleArray(rp->eval, N_EVAL));
     cJSON_AddItemToObject(j, "contrast_before_pct", point_array(pc->m[0].pt, f_before));
+    cJSON_AddNumberToObject(j, "pixels", (double)rp->b.width * rp->b.height);
+    cJSON_AddItemToObject(j, "pixels_left_out_before", point_array(pc->m[0].pt, f_left_before));
     add_notes(j);
     cJSON *models = cJSON_AddArrayToObject(j, "models");
     for (int i = 0; i < rp->n_models; i++)
@@ -548,6 +588,7 @@ static int write_json(const report *rp, const emva *e, double hist_before, doubl
     cJSON_AddNumberToObject(em, "dsnu_mV_after", e->dsnu_after_mv);
     cJSON_AddNumberToObject(em, "prnu_pct_before_at_1e-11A", e->prnu_pct);
     cJSON_AddNumberToObject(em, "prnu_pct_after_at_1e-11A", e->prnu_after_pct);
+    cJSON_AddNumberToObject(em, "pixels_left_out", (double)pc->m[0].run.res.n_bad); /* the first model's flags */
     cJSON_AddStringToObject(em, "note",
                             "nonlinear pixel: DSNU in mV at the ADC input, PRNU as the spread of the "
                             "signal above dark at 1e-11 A; primary condition (temporal noise off, so "
@@ -555,6 +596,7 @@ static int write_json(const report *rp, const emva *e, double hist_before, doubl
     cJSON *h = cJSON_AddObjectToObject(j, "histogram_1e-11A");
     cJSON_AddNumberToObject(h, "sd_before_pct", hist_before);
     cJSON_AddNumberToObject(h, "sd_after_pct", hist_after);
+    cJSON_AddNumberToObject(h, "pixels_flagged_left_out_after", (double)pc->m[0].run.res.n_bad);
     char path[1024], *text = cJSON_Print(j);
     snprintf(path, sizeof path, "%.900s/fpn.json", rp->o.outdir);
     FILE *f = fopen(path, "w");

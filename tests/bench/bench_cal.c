@@ -1,6 +1,6 @@
 /* Accuracy vs time for calibration: per model, the fit time per megapixel and the residual
  * contrast error it leaves (worst over 31 currents, 1e-14..1e-8 A, 100 sd of ln(x_hat/x) by
- * host/cal/cal_metrics.h as wdrctl fpn report, on the simulator with default mismatch, static
+ * host/cal/metrics/cal_metrics.h as wdrctl fpn report, on the simulator with default mismatch, static
  * effects on, temporal noise off), analog (no DAC/ADC quantisation) and with the 12-bit converters
  * beside the model's floor; and for the N-current spline, how the number of calibration currents
  * trades frames for accuracy, through the study engine (host/study, `wdrctl study`) with the

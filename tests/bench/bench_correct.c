@@ -112,7 +112,7 @@ static double form_error(chip *c, const form_row *f, double *beyond)
     }
     double worst = 0;
     wdr_eval_opts eo = {.frames = 1};
-    for (int k = 0; k < 31; k++) { /* the metrics of host/cal/cal_metrics.h, as wdrctl fpn report */
+    for (int k = 0; k < 31; k++) { /* the metrics of host/cal/metrics/cal_metrics.h, as wdrctl fpn report */
         wdr_eval_point p;
         eo.first_frame_no = 100 + k;
         if (wdr_eval_point_measure(&res, &tab, &c->src, 1e-14 * pow(1e6, (k + 0.37) / 31), &eo, &p))

@@ -1,4 +1,4 @@
-/* The figures of merit (host/cal/cal_metrics.h) on synthetic recovered currents whose answer is
+/* The figures of merit (host/cal/metrics/cal_metrics.h) on synthetic recovered currents whose answer is
  * known: contrast error as the spread of ln(x_hat/x) with the pixels past the curve counted and
  * clamps left out, total error split into FPN and temporal, display-space error and its pooling
  * per decade, the quantisation floor; and the display mapping through a response curve

@@ -8,10 +8,7 @@ set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 build=$1 seconds=$2
 shift 2
-# lut is left out until its finding is fixed: tests/fuzz/findings/lut_extend_invalid.bin, a valid LUT
-# (CRCs fixed by the harness) whose wdr_cal_lut_extend result does not parse (fuzz_lut.c: 62).
-# Run it by hand: run_fuzz.sh build-fuzz 30 lut
-targets=${*:-"fw_rx fw_update cal boot scene images client image fw_image linux_board capture"}
+targets=${*:-"fw_rx fw_update lut cal boot scene images client image fw_image linux_board capture"}
 mkdir -p "$build/fuzz-artifacts"
 status=0
 for t in $targets; do

@@ -7,7 +7,8 @@
 #   1 sim/                         the physics: boards, device equations, scenes, the simulator
 #   2 hal/<backend>/               one backend per folder; a backend never includes another
 #   3 host/lib/                    operators, ramps, tone maps, transports
-#   4 host/cal/                    calibration
+#   4 host/cal/<stage>/            calibration, one folder per pipeline stage (their order among
+#                                  themselves: check_cal_stages.cmake)
 #   5 host/study/                  the study of what accuracy costs (wdrctl study)
 #   6 programs                     wdrctl, wdrsim, wdr-simboard (host/simboard), wdr-board
 #                                  (host/board), the firmware images
@@ -24,7 +25,9 @@ set(layer_hal/linux 2)
 set(layer_hal/template 2)
 set(layer_hal/mps2 2)
 set(layer_host/lib 3)
-set(layer_host/cal 4)
+foreach(stage acquire stats fit table metrics)
+  set(layer_host/cal/${stage} 4)
+endforeach()
 set(layer_host/study 5)
 set(layer_host/wdrctl 6)
 set(layer_host/wdrsim 6)

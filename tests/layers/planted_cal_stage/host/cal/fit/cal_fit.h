@@ -1,0 +1,2 @@
+/* Planted fault for the calibration pipeline check: a header of the fit stage. */
+int wdr_cal_fit_array(int n);
