@@ -40,6 +40,7 @@ static struct {
     size_t tx_fill; /* bytes waiting in tx[tx_filling] */
     int tx_filling;
     int tx_refused; /* hal_usb_write said BUSY: tell the firmware when there is room */
+    int tx_busy;    /* the IN thread is writing a transfer it took (lx_usb_close waits for it) */
     pthread_t threads[3]; /* ep0, OUT, IN */
     atomic_int ended[3]; /* set by a thread as it returns: lx_usb_close joins it then */
     int n_threads;
@@ -304,6 +305,7 @@ static size_t tx_take(const uint8_t **p, uint16_t *packet)
         return 0;
     }
     size_t len = U.tx_fill;
+    U.tx_busy = 1;
     *p = U.tx[U.tx_filling];
     *packet = U.in_packet;
     U.tx_filling ^= 1;
@@ -330,6 +332,10 @@ static void *tx_main(void *arg)
         if (write_all(p, len) == 0 && len % packet == 0 && write(U.ep_in, p, 0) < 0) {
             /* the host went away: ep0 reports the reset */
         }
+        pthread_mutex_lock(&U.lock);
+        U.tx_busy = 0;
+        pthread_cond_broadcast(&U.cond); /* lx_usb_close may be waiting for this transfer */
+        pthread_mutex_unlock(&U.lock);
     }
     atomic_store(&U.ended[2], 1);
     return NULL;
@@ -403,6 +409,25 @@ static void close_ep(int *fd)
     *fd = -1;
 }
 
+/* Let what the firmware has queued leave first (the answer to REBOOT among it: the firmware
+ * resets once hal_usb_write has taken its last bytes, which here means a buffer, not the wire),
+ * while a host is there, for at most TX_DRAIN_MS. */
+#define TX_DRAIN_MS 500
+
+static void drain_tx(void)
+{
+    struct timespec until;
+    clock_gettime(CLOCK_REALTIME, &until); /* the condition's clock */
+    until.tv_nsec += (long)(TX_DRAIN_MS % 1000) * 1000000L;
+    until.tv_sec += TX_DRAIN_MS / 1000 + until.tv_nsec / 1000000000L;
+    until.tv_nsec %= 1000000000L;
+    pthread_mutex_lock(&U.lock);
+    while (U.connected && (U.tx_fill || U.tx_busy))
+        if (pthread_cond_timedwait(&U.cond, &U.lock, &until) == ETIMEDOUT)
+            break;
+    pthread_mutex_unlock(&U.lock);
+}
+
 /* Wake thread i until it has returned, then join it. The signal is sent again every
  * millisecond: one sent just before the thread enters its read or write would be lost. */
 static void stop_thread(int i)
@@ -423,6 +448,7 @@ static void stop_thread(int i)
  * come, until the process exits. Closing ep0 last makes the kernel unbind the gadget. */
 void lx_usb_close(void)
 {
+    drain_tx();
     pthread_mutex_lock(&U.lock);
     U.connected = 0;
     atomic_store(&U.stopping, 1);
