@@ -31,6 +31,13 @@ static void split(const char *text, list *l)
     free(buf);
 }
 
+static void list_free(list *l)
+{
+    for (int i = 0; i < l->n; i++)
+        free(l->s[i]);
+    l->n = 0;
+}
+
 static const char *const all_ops = "reinhard,reinhard_white,schlick,tumblin_rushmeier,drago,exponential,logarithmic";
 
 typedef struct sweep {
@@ -159,5 +166,8 @@ int main(int argc, char **argv)
                         }
     printf("# %ld cells: %ld refused, %ld accepted; worst accepted %.0f ppm (%s); %ld accepted over %.0f ppm\n", cells,
            refused, cells - refused, worst_ppm, worst, over, MAX_PPM);
+    list *lists[] = {&w.seeds, &w.mismatch, &w.models, &w.ops, &w.conv, &w.noise};
+    for (size_t k = 0; k < sizeof lists / sizeof lists[0]; k++)
+        list_free(lists[k]);
     return over ? 1 : 0;
 }

@@ -127,8 +127,9 @@ static int plant(chip *c)
 
 static int design_for(chip *c, const char *op, char *err, int errlen)
 {
-    return wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim),
-                               c->b.height / 2 * c->b.row_time_s, 1, err, errlen);
+    const int middle_row = c->b.height / 2; /* the row whose hold time the design assumes */
+    return wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim), middle_row * c->b.row_time_s,
+                               1, err, errlen);
 }
 
 static int size_margin(chip *c, const char *op, char *err, int errlen)
@@ -300,8 +301,15 @@ int cm_run_chip(const cm_setup *s, int model, const char *op, uint64_t seed, dou
     int fitted[2] = {0, 0};
     char reason[2][CM_REASON] = {"", ""};
     double lo = 0, hi = 0, x[CM_N_TEST];
-    if (chip_open(&c[0], s, op, seed, mismatch, 0) || chip_open(&c[1], s, op, seed, mismatch, 1))
+    if (chip_open(&c[0], s, op, seed, mismatch, 0)) {
+        chip_close(&c[0]);
         return 1;
+    }
+    if (chip_open(&c[1], s, op, seed, mismatch, 1)) {
+        chip_close(&c[0]);
+        chip_close(&c[1]);
+        return 1;
+    }
     /* both sides judged at the same currents: the analog chip's informative range */
     if (wdr_cal_informative_range(&c[0].grid, MIN_SLOPE_CODES, &lo, &hi) &&
         wdr_cal_informative_range(&c[1].grid, MIN_SLOPE_CODES, &lo, &hi))

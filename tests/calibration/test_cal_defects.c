@@ -381,8 +381,9 @@ static weak_run run_weak_hot(const chip_case *cc, double amps)
     if (wdr_cal_build_table(&res, 1, 1, &tb, &tl, err, sizeof err))
         fail_msg("table: %s", err);
     assert_int_equal(wdr_cal_parse(tb, tl, &tab), WDR_OK);
+    const int middle_row = cc->h / 2; /* the row whose hold time the design assumes */
     assert_int_equal(wdr_cal_design_init(&design, &c.b, cc->op, wdr_sim_integration_time(c.sim),
-                                         cc->h / 2 * c.b.row_time_s, 1, err, sizeof err),
+                                         middle_row * c.b.row_time_s, 1, err, sizeof err),
                      WDR_OK);
     if (plant) /* the plant: a dark current 10x the one calibrated, which the table does not correct */
         plant_weak_hot(&c, 10 * amps);

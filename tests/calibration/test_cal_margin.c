@@ -56,7 +56,8 @@ static void chip_open(chip *c, const char *op, int seed, double mismatch, double
     c->ss = (wdr_cal_simsrc){c->sim, 1, 700};
     c->src = (wdr_cal_source){W, H, wdr_cal_sim_capture, &c->ss};
     wdr_cal_design d;
-    if (wdr_cal_design_init(&d, &c->b, op, wdr_sim_integration_time(c->sim), H / 2 * c->b.row_time_s, 1, err,
+    const int middle_row = H / 2; /* the row whose hold time the design assumes */
+    if (wdr_cal_design_init(&d, &c->b, op, wdr_sim_integration_time(c->sim), middle_row * c->b.row_time_s, 1, err,
                             sizeof err))
         fail_msg("%s: design: %s", op, err);
     wdr_cal_margin_req req;

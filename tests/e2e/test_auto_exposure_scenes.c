@@ -208,8 +208,10 @@ out:
 int main(int argc, char **argv)
 {
     const char *board_name = argc > 1 ? argv[1] : "sim-qvga";
-    const char *cal_frames = getenv("WDR_EXPO_CAL_FRAMES") ? getenv("WDR_EXPO_CAL_FRAMES") : "8";
-    if (!strcmp(cal_frames, "none"))
+    const char *cal_frames = getenv("WDR_EXPO_CAL_FRAMES");
+    if (!cal_frames)
+        cal_frames = "8";
+    else if (!strcmp(cal_frames, "none"))
         cal_frames = NULL;
     int n_seeds = argc > 2 ? argc - 2 : 1, failed = 0;
     outcome all[16][N_SCENES];
