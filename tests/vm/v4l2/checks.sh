@@ -15,7 +15,14 @@ v4l2_load() {
     wait_for 10 test -c $V4L2_DEV
 }
 
-v4l2_format_set() { v4l2-ctl -d $V4L2_DEV --get-fmt-video 2>/dev/null | grep -q "Width/Height *: *$1/$2"; }
+# The size and the pixel format the writer set: the size alone was already there from the grey
+# check (trixie's v4l2loopback keeps the format after its writer closes), so the Y16 reader once
+# started on GREY frames and one frame of three differed.
+v4l2_format_set() { # W H FOURCC
+    local f
+    f=$(v4l2-ctl -d $V4L2_DEV --get-fmt-video 2>/dev/null)
+    echo "$f" | grep -q "Width/Height *: *$1/$2" && echo "$f" | grep -q "Pixel Format *: *'$3"
+}
 
 v4l2_read() { # grey|y16, bytes of 3 frames: as any V4L2 program reads them (v4l2-ctl exits 0
     # even when STREAMON fails, so the file's size says whether the frames came)
@@ -31,7 +38,9 @@ v4l2_check() { # grey|y16
     [ $fmt = y16 ] && bpp=2
     timeout 120 wdrctl stream --v4l2 $V4L2_DEV --format $fmt --timeout 3000 >/dev/null 2>/tmp/v4l2-writer.log &
     writer=$!
-    wait_for 30 v4l2_format_set $w $h || { cat /tmp/v4l2-writer.log; echo "the writer never set ${w}x$h"; kill $writer; return 1; }
+    local fourcc=GREY
+    [ $fmt = y16 ] && fourcc="Y16 "
+    wait_for 30 v4l2_format_set $w $h "$fourcc" || { cat /tmp/v4l2-writer.log; echo "the writer never set ${w}x$h"; kill $writer; return 1; }
     v4l2-ctl -d $V4L2_DEV --get-fmt-video
     # v4l2loopback 0.13 and later (trixie's 0.15) refuse STREAMON (EIO) until the writer has
     # sent its first frame; 0.12 (bookworm's) waits. So the reader asks again until then.
