@@ -31,29 +31,49 @@ static int table_frame(const wdr_cal_view *tab, const float *frame, float *out)
     return WDR_OK;
 }
 
+/* The table path's corrected frame (*corr, to be freed), or NULL on the model path: both frame
+ * measures read a frame through the same checks. */
+static int corrected_frame(const wdr_cal_result *res, const wdr_cal_view *tab, int path, const float *frame,
+                           float **corr)
+{
+    *corr = NULL;
+    if (path != WDR_PATH_TABLE)
+        return WDR_OK;
+    if (!tab || tab->h.width != res->width || tab->h.height != res->height)
+        return WDR_E_INVAL;
+    if (!(*corr = malloc(sizeof(float) * (size_t)res->width * (size_t)res->height)))
+        return WDR_E_NOMEM;
+    int rc = table_frame(tab, frame, *corr);
+    if (rc) {
+        free(*corr);
+        *corr = NULL;
+    }
+    return rc;
+}
+
+/* A pixel flagged by the calibration, or (table path) by the table itself, is left out. */
+static int left_out_pixel(const wdr_cal_result *res, const wdr_cal_view *tab, const float *corr, const uint8_t *flags,
+                          long i)
+{
+    if (flags && flags[i])
+        return 1;
+    return corr && tab->payload &&
+           wdr_cal_pixel_flags(tab->h.form, wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width]);
+}
+
 /* ---- x_hat ---- */
 
 int wdr_fpn_recover(const wdr_cal_result *res, const wdr_cal_view *tab, int path, const float *frame,
                     const uint8_t *flags, double *x_hat)
 {
     long np = (long)res->width * res->height;
-    float *corr = NULL;
-    if (path == WDR_PATH_TABLE && (!tab || tab->h.width != res->width || tab->h.height != res->height))
-        return WDR_E_INVAL;
-    if (path == WDR_PATH_TABLE) {
-        if (!(corr = malloc(sizeof(float) * (size_t)np)))
-            return WDR_E_NOMEM;
-        int rc = table_frame(tab, frame, corr);
-        if (rc) {
-            free(corr);
-            return rc;
-        }
-    }
-    for (long i = 0; i < np; i++) {
-        int left_out = (flags && flags[i]) ||
-                       (corr && tab->payload && wdr_cal_pixel_flags(tab->h.form, wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width]));
-        x_hat[i] = left_out ? NAN : recovered(res, path, i, frame[i], corr ? corr[i] : 0);
-    }
+    float *corr;
+    int rc = corrected_frame(res, tab, path, frame, &corr);
+    if (rc)
+        return rc;
+    for (long i = 0; i < np; i++)
+        x_hat[i] =
+            left_out_pixel(res, tab, corr, flags, i) ? NAN : recovered(res, path, i, frame[i], corr ? corr[i] : 0);
     free(corr);
     return WDR_OK;
 }
@@ -353,26 +373,19 @@ int wdr_fpn_frame(const wdr_cal_result *res, const wdr_cal_view *tab, int path, 
                   const uint8_t *flags, double *rel_err, wdr_fpn_stats *out)
 {
     long np = (long)res->width * res->height;
-    float *corr = NULL;
+    float *corr;
     memset(out, 0, sizeof *out);
     out->x = x;
-    if (!(x > 0) || (path == WDR_PATH_TABLE && (!tab || tab->h.width != res->width || tab->h.height != res->height)))
+    if (!(x > 0))
         return WDR_E_INVAL;
-    if (path == WDR_PATH_TABLE) {
-        if (!(corr = malloc(sizeof(float) * (size_t)np)))
-            return WDR_E_NOMEM;
-        int rc = table_frame(tab, frame, corr);
-        if (rc) {
-            free(corr);
-            return rc;
-        }
-    }
+    int rc = corrected_frame(res, tab, path, frame, &corr);
+    if (rc)
+        return rc;
     double sum = 0, sum2 = 0;
     for (long i = 0; i < np; i++) {
         if (rel_err)
             rel_err[i] = NAN;
-        if ((flags && flags[i]) ||
-            (corr && tab->payload && wdr_cal_pixel_flags(tab->h.form, wdr_cal_row_flags(tab, (int)(i / res->width))[i % res->width]))) {
+        if (left_out_pixel(res, tab, corr, flags, i)) {
             out->excluded++;
             continue;
         }
