@@ -30,7 +30,8 @@ result() { echo "@@RESULT $1 $2 $3"; }
 fact() { echo "@@FACT $1 $2"; }
 log() { echo "== $*"; }
 # wdrctl with a bound: a hung board must fail the check, not the whole VM run.
-ctl() { timeout 60 wdrctl "$@" --timeout 3000; }
+# 10 s past the frame time: TCG-emulated, a loaded 2-core machine took over 3 s for one VGA frame (341 of 480 rows)
+ctl() { timeout 60 wdrctl "$@" --timeout 10000; }
 
 load_modules() {
     for ko in $(cat /lib/modules/order); do
