@@ -14,8 +14,10 @@
  * 4. weak hot pixels (extra dark current 1e-13 A, 1e-14 A): not flagged, and corrected: at the dark
  *    end their recovered current is within 1 % (analog) or within sqrt(1 %^2 + floor^2) (12 bits,
  *    the quantisation floor) of the truth, as healthy pixels are.
+ * 5. hot pixels at the simulator's 1e-11 A on Schlick, which the frames cannot always tell from a
+ *    reset offset: those left unflagged are corrected within the 12-bit limit at the dark end.
  * `test_cal_defects plant` evaluates the weak hot pixels with 10x the extra dark current they were
- * calibrated with (a dark current the table does not correct): test 4 must fail. */
+ * calibrated with (a dark current the table does not correct): tests 4 and 5 must fail. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -39,6 +41,11 @@
 #define MAX_FALSE_PPM 10.0
 #define ANALOG_LIMIT_PCT 1.0
 #define N_DARK_END 7
+/* A current whose 12-bit floor is 100 % or more is not resolved by the converters (one code step
+ * spans a factor 2 of current or more): a pixel may read 0 A there where the truth is 1e-14 A, an
+ * infinite log error that says nothing of its correction. Such currents are printed, not judged. */
+#define UNRESOLVED_FLOOR_PCT 100.0
+#define SIM_HOT_AMPS 1e-11 /* a hot pixel's dark current when the "defects" effect plants it (sim/wdr_sim.h) */
 
 static const double dark_end[N_DARK_END] = {1e-14, 2e-14, 5e-14, 1e-13, 2e-13, 5e-13, 1e-12};
 
@@ -397,7 +404,8 @@ static weak_run run_weak_hot(const chip_case *cc, double amps)
                                                               wdr_cal_design_dac_step_codes(&design, dark_end[k]))
                                         : 0;
         r.limit_pct[k] = hypot(ANALOG_LIMIT_PCT, r.floor_pct[k]);
-        r.worst_ratio = fmax(r.worst_ratio, r.hot_rms_pct[k] / r.limit_pct[k]);
+        if (r.floor_pct[k] < UNRESOLVED_FLOOR_PCT) /* see UNRESOLVED_FLOOR_PCT */
+            r.worst_ratio = fmax(r.worst_ratio, r.hot_rms_pct[k] / r.limit_pct[k]);
     }
     printf("# %dx%d seed %llu %s %s, form %d/%d coefficients, extra dark current %.0e A: %ld weak hot pixels, %ld "
            "flagged; healthy flagged %ld; %d frames\n#   x (A), weak hot rms %%, healthy sd %%, floor %%, limit %%:",
@@ -447,6 +455,31 @@ static void weak_hot_corrected_at_dark_end(void **state)
     assert_true(worst <= 1.0);
 }
 
+/* Hot pixels at the simulator's own hot current (1e-11 A, what the "defects" effect plants) on
+ * Schlick, whose dark end is nearly linear: there a dark current moves the whole response by a
+ * near-constant code, as a reset offset does, so the frames cannot always tell it (on sim-qvga
+ * one of three planted at 1x sits 7.9 robust sigma from the dark median, under the 8 sigma limit;
+ * at 2x the sigma doubles). Those left unflagged must be corrected as healthy pixels are: within
+ * the limit at the dark end. 160x120, seeds 1-3, 1x and 2x mismatch, 12 bits, noise off. */
+static void hot_pixels_left_unflagged_are_corrected(void **state)
+{
+    (void)state;
+    double worst = 0;
+    long planted = 0, flagged = 0;
+    for (uint64_t seed = 1; seed <= 3; seed++)
+        for (int m = 1; m <= 2; m++) {
+            chip_case cc = {160, 120, seed, m, "schlick", 1, 0, 0};
+            weak_run r = run_weak_hot(&cc, SIM_HOT_AMPS);
+            assert_int_equal(r.healthy_flagged, 0);
+            worst = fmax(worst, r.worst_ratio);
+            planted += r.planted, flagged += r.flagged;
+        }
+    printf("# Schlick, hot pixels at %.0e A: %ld of %ld flagged; those left: worst rms over the limit %.3f (must be "
+           "<= 1)\n",
+           SIM_HOT_AMPS, flagged, planted, worst);
+    assert_true(worst <= 1.0);
+}
+
 int main(int argc, char **argv)
 {
     for (int a = 1; a < argc; a++) {
@@ -462,6 +495,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(planted_defects_found_by_kind),
         cmocka_unit_test(kinds_over_chips),
         cmocka_unit_test(weak_hot_corrected_at_dark_end),
+        cmocka_unit_test(hot_pixels_left_unflagged_are_corrected),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
