@@ -76,7 +76,7 @@ static int matrix; /* argument "matrix": every cell */
 /* argument "memory" (the sanitizers' run, tests/calibration/CMakeLists.txt): seed 1 only in each
  * sweep, so every code path runs under ASan and UBSan once; the Release run holds the figures. */
 static int memory;
-static int forms;  /* argument "forms": weak hot pixels through the forms --form auto gives (measured only) */
+static int forms; /* argument "forms": weak hot pixels through the forms --form auto gives (measured only) */
 
 static void chip_open(chip *c, const chip_case *cc)
 {
