@@ -382,7 +382,7 @@ int cal_acquire_and_fit(const cal_opts *o, const wdr_cal_source *src, cal_run *r
     }
     if (wdr_cal_fit_array(&r->levels, &r->cfg, &r->res, err, sizeof err))
         return wdrctl_fail(EX_DATAERR, "calibrate: %s", err);
-    if (wdr_cal_build_table(&r->res, sensor_id, op_id, &r->table, &r->table_len, err, sizeof err))
+    if (!r->table_later && wdr_cal_build_table(&r->res, sensor_id, op_id, &r->table, &r->table_len, err, sizeof err))
         return wdrctl_fail(EX_SOFTWARE, "calibrate: %s", err);
     return EX_OK;
 }

@@ -5,6 +5,7 @@
 #include "board.h"
 #include "cal_design.h"
 #include "cal_engine.h"
+#include "cal_form_measure.h"
 #include "cal_margin.h"
 #include "cal_select.h"
 #include "wdrctl.h"
@@ -48,11 +49,11 @@ typedef struct cal_opts {
     int select_n, frames, adc, dac, upload, json, sample, out_scale;
     int noise;       /* simulated chip: temporal noise (shot, kTC, read); calibrate --noise, fpn report per condition */
     int noise_asked; /* --noise was given (a board has its own noise: calibrate --device refuses it) */
-    const char *frames_text; /* --frames M or auto */
+    const char *frames_text;      /* --frames M or auto */
     const char *max_flagged_text; /* calibrate --max-flagged N|Nppm */
     cal_flag_limit max_flagged;   /* parsed (default CAL_MAX_FLAGGED_DEFAULT) */
-    int frames_auto;         /* --frames auto (the default): chosen from the probe's measured noise */
-    int form;                /* enum wdr_cal_form; CAL_FORM_AUTO (the default): chosen by the target */
+    int frames_auto;              /* --frames auto (the default): chosen from the probe's measured noise */
+    int form;                     /* enum wdr_cal_form; CAL_FORM_AUTO (the default): chosen by the target */
     uint64_t seed;
 } cal_opts;
 
@@ -66,29 +67,55 @@ typedef struct cal_opts {
 #define CAL_O(f) offsetof(cal_opts, f)
 extern const cli_choice cal_on_off[], cal_forms[];
 #define CAL_FORM_AUTO (-1) /* --form auto: the smallest form that meets the target (cal_form_auto.h) */
-#define CAL_ROW_BOARD {"board", 0, CLI_STRING, CAL_O(board), "NAME|FILE", "board: a name (sim-vga) or a board.json file", \
-                       .values = "@boards"}
-#define CAL_ROW_OPERATOR                                                                                             \
-    {"operator", 0, CLI_STRING, CAL_O(op_name), "NAME", "operator of the simulated chip's LUT (default reinhard)", \
-     .values = "@operators"}
-#define CAL_ROW_ADC                                                                                                  \
-    {"adc", 0, CLI_CHOICE, CAL_O(adc), "on|off", "the simulated column ADC quantises (default on)", .choices = cal_on_off}
-#define CAL_ROW_DAC                                                                                                  \
-    {"dac", 0, CLI_CHOICE, CAL_O(dac), "on|off", "the simulated ramp DAC quantises (default on)", .choices = cal_on_off}
-#define CAL_ROW_NOISE                                                                                                \
-    {"noise", 0, CLI_CHOICE, CAL_O(noise), "on|off",                                                                 \
-     "the simulated chip's temporal noise: shot, kTC, read (default " CAL_NOISE_DEFAULT_NAME ")", .choices = cal_on_off}
-#define CAL_ROW_FRAMES                                                                                               \
-    {"frames", 0, CLI_STRING, CAL_O(frames_text), "M|auto",                                                       \
-     "frames averaged per level, 1..4096 (default auto: from the measured noise)"}
-#define CAL_ROW_SAMPLE                                                                                               \
-    {"sample", 0, CLI_INT, CAL_O(sample), "N", "pixels sampled to choose currents (default 256)", .min = 16,       \
-     .max = 1 << 20}
-#define CAL_ROW_SEED {"seed", 0, CLI_U64, CAL_O(seed), "N", "chip seed of the simulated sensor (default 1)"}
-#define CAL_ROW_OUT_SCALE                                                                                            \
-    {"out-scale", 0, CLI_INT, CAL_O(out_scale), "K", "corrected codes span raw_max * K (default 1)", .min = 1,     \
-     .max = 16}
-#define CAL_ROW_JSON {"json", 0, CLI_FLAG, CAL_O(json), NULL, "print the summary as JSON"}
+#define CAL_ROW_BOARD                                                                                                  \
+    {                                                                                                                  \
+        "board", 0, CLI_STRING, CAL_O(board), "NAME|FILE", "board: a name (sim-vga) or a board.json file",             \
+            .values = "@boards"                                                                                        \
+    }
+#define CAL_ROW_OPERATOR                                                                                               \
+    {                                                                                                                  \
+        "operator", 0, CLI_STRING, CAL_O(op_name), "NAME", "operator of the simulated chip's LUT (default reinhard)",  \
+            .values = "@operators"                                                                                     \
+    }
+#define CAL_ROW_ADC                                                                                                    \
+    {                                                                                                                  \
+        "adc", 0, CLI_CHOICE, CAL_O(adc), "on|off", "the simulated column ADC quantises (default on)",                 \
+            .choices = cal_on_off                                                                                      \
+    }
+#define CAL_ROW_DAC                                                                                                    \
+    {                                                                                                                  \
+        "dac", 0, CLI_CHOICE, CAL_O(dac), "on|off", "the simulated ramp DAC quantises (default on)",                   \
+            .choices = cal_on_off                                                                                      \
+    }
+#define CAL_ROW_NOISE                                                                                                  \
+    {                                                                                                                  \
+        "noise", 0, CLI_CHOICE, CAL_O(noise), "on|off",                                                                \
+            "the simulated chip's temporal noise: shot, kTC, read (default " CAL_NOISE_DEFAULT_NAME ")",               \
+            .choices = cal_on_off                                                                                      \
+    }
+#define CAL_ROW_FRAMES                                                                                                 \
+    {                                                                                                                  \
+        "frames", 0, CLI_STRING, CAL_O(frames_text), "M|auto",                                                         \
+            "frames averaged per level, 1..4096 (default auto: from the measured noise)"                               \
+    }
+#define CAL_ROW_SAMPLE                                                                                                 \
+    {                                                                                                                  \
+        "sample", 0, CLI_INT, CAL_O(sample), "N", "pixels sampled to choose currents (default 256)", .min = 16,        \
+                                                                                                     .max = 1 << 20    \
+    }
+#define CAL_ROW_SEED                                                                                                   \
+    {                                                                                                                  \
+        "seed", 0, CLI_U64, CAL_O(seed), "N", "chip seed of the simulated sensor (default 1)"                          \
+    }
+#define CAL_ROW_OUT_SCALE                                                                                              \
+    {                                                                                                                  \
+        "out-scale", 0, CLI_INT, CAL_O(out_scale), "K", "corrected codes span raw_max * K (default 1)", .min = 1,      \
+                                                                                                        .max = 16      \
+    }
+#define CAL_ROW_JSON                                                                                                   \
+    {                                                                                                                  \
+        "json", 0, CLI_FLAG, CAL_O(json), NULL, "print the summary as JSON"                                            \
+    }
 
 typedef struct sim_chip {
     wdr_sim *sim;
@@ -98,6 +125,16 @@ typedef struct sim_chip {
     wdr_cal_margin margin; /* the calibration margin its ramp carries, sized from its frames */
 } sim_chip;
 
+/* --form auto, measured on the chip (cal_form_choice.c): the forms tried and the one chosen. */
+typedef struct cal_form_choice {
+    wdr_form_trial trial[WDR_FORM_CANDIDATES];
+    int tried, chosen;    /* chosen: index into trial, -1 when none met (basis-8 kept) */
+    int currents, frames; /* judged currents, frames averaged at each */
+    int fresh;            /* 1: fresh frames at lit currents; 0: the calibration's own levels */
+    int noise_removed;    /* the temporal noise measured (a second set of frames) and taken out */
+    wdr_form_target target;
+} cal_form_choice;
+
 typedef struct cal_run {
     wdr_cal_config cfg;
     wdr_cal_choice choice;
@@ -106,10 +143,25 @@ typedef struct cal_run {
     uint8_t *table;
     size_t table_len;
     double lo, hi;
-    int frames;                  /* frames per level used (0: o->frames) */
-    wdr_cal_frames_choice why;   /* how --frames auto chose (frames 0: not chosen) */
-    wdr_cal_margin margin;       /* the ramp's calibration margin, as sized (rounds 0: none sized) */
+    int frames;                /* frames per level used (0: o->frames) */
+    wdr_cal_frames_choice why; /* how --frames auto chose (frames 0: not chosen) */
+    wdr_cal_margin margin;     /* the ramp's calibration margin, as sized (rounds 0: none sized) */
+    cal_form_choice form_auto; /* --form auto: the forms tried on the chip's frames (tried 0: not chosen) */
+    int table_later;           /* cal_acquire_and_fit builds no table: --form auto builds the one it keeps */
 } cal_run;
+
+/* --form auto for a spline fit (r->res, r->table already built): the smallest form meeting the
+ * target on this chip's frames becomes r->table, and r->cfg says which. how->can_light: fresh
+ * frames from src at currents over [r->lo, r->hi] (temporal: two sets, the noise measured and
+ * taken out); otherwise the calibration's own levels (a real board: nobody is asked to set more
+ * light). Prints each rejected form. @return a sysexits code */
+typedef struct cal_form_frames_how {
+    int can_light, temporal;
+} cal_form_frames_how;
+int cal_choose_form(const wdr_cal_source *src, const cal_form_frames_how *how, uint32_t sensor_id, int op_id,
+                    cal_run *r);
+/* The choice for calibrate --json (a cJSON object). */
+struct cJSON *cal_form_choice_json(const cal_form_choice *c);
 
 /* --frames auto: a contrast error of this much from temporal noise at any level (%: half the eye's 1 %), and the most
  * frames it may ask for per level */

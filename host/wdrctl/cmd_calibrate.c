@@ -3,7 +3,6 @@
  * light level. The frame source for a board is host/cal/acquire/cal_board_source.c. */
 #include "cal_board_source.h"
 #include "cal_common.h"
-#include "cal_form_auto.h"
 #include "file_io.h"
 #include "operators.h"
 #include "transport_client.h"
@@ -102,14 +101,14 @@ static int close_device(device_src *d, int rc)
 
 /* ---- verification: the figures of host/cal/metrics/cal_metrics.h on fresh frames ---- */
 
-#define VERIFY_CURRENTS 7      /* log-spaced over the calibrated range, about one per decade */
-#define VERIFY_MAX_FRAMES 4    /* frames averaged per verification frame (at most the calibration's) */
-#define NOMINAL_PER_DECADE 64  /* nominal response points for the display mapping (tonemap --nominal) */
+#define VERIFY_CURRENTS 7     /* log-spaced over the calibrated range, about one per decade */
+#define VERIFY_MAX_FRAMES 4   /* frames averaged per verification frame (at most the calibration's) */
+#define NOMINAL_PER_DECADE 64 /* nominal response points for the display mapping (tonemap --nominal) */
 
 typedef struct verify_ctx {
-    int can_light;  /* the source sets its own uniform light (simulator, simulated board) */
-    int quantised;  /* converters on */
-    int temporal;   /* temporal noise expected (a board: yes; the simulator: as set up) */
+    int can_light;          /* the source sets its own uniform light (simulator, simulated board) */
+    int quantised;          /* converters on */
+    int temporal;           /* temporal noise expected (a board: yes; the simulator: as set up) */
     const char *holds_with; /* the conditions, printed beside the figures */
     const wdr_cal_design *design;
     wdr_display_map display;
@@ -128,7 +127,8 @@ static int verify_display(const cal_opts *o, const wdr_board *b, verify_ctx *v)
     return EX_OK;
 }
 
-static int verify(const cal_opts *o, const wdr_cal_source *src, const cal_run *r, const verify_ctx *v, verify_result *out)
+static int verify(const cal_opts *o, const wdr_cal_source *src, const cal_run *r, const verify_ctx *v,
+                  verify_result *out)
 {
     char err[512];
     wdr_cal_view tab;
@@ -136,8 +136,11 @@ static int verify(const cal_opts *o, const wdr_cal_source *src, const cal_run *r
     if (!o->json || !v->can_light || wdr_cal_parse(r->table, r->table_len, &tab))
         return EX_OK;
     out->frames = r->frames < VERIFY_MAX_FRAMES ? r->frames : VERIFY_MAX_FRAMES;
-    wdr_eval_opts eo = {.frames = out->frames, .temporal = v->temporal, .quantised = v->quantised,
-                        .display = &v->display, .design = v->design};
+    wdr_eval_opts eo = {.frames = out->frames,
+                        .temporal = v->temporal,
+                        .quantised = v->quantised,
+                        .display = &v->display,
+                        .design = v->design};
     for (int k = 0; k < VERIFY_CURRENTS; k++) {
         double x = r->lo * pow(r->hi / r->lo, (k + 0.5) / VERIFY_CURRENTS);
         eo.first_frame_no = 5000000 + 16 * k;
@@ -187,7 +190,7 @@ static cJSON *verification_json(const verify_ctx *v, const cal_run *r, const ver
         a[4][k] = p->floor_pct, a[5][k] = p->total.total_1_pct, a[6][k] = p->total.temporal_pct;
         per[k] = p->display;
     }
-    static const char *names[] = {"photocurrents_A", "contrast_before_pct", "before_beyond_curve_frac",
+    static const char *names[] = {"photocurrents_A",          "contrast_before_pct",    "before_beyond_curve_frac",
                                   "contrast_after_table_pct", "quantisation_floor_pct", "total_one_frame_pct",
                                   "temporal_one_frame_pct"};
     cJSON_AddStringToObject(j, "holds_with", v->holds_with);
@@ -227,8 +230,9 @@ static cJSON *nominal_json(const cal_run *r)
         lx[k] = exp(lx[k]);
     cJSON_AddItemToObject(j, "amps_A", cJSON_CreateDoubleArray(lx, n));
     cJSON_AddItemToObject(j, "codes", cJSON_CreateDoubleArray(code, n));
-    cJSON_AddStringToObject(j, "note", "corrected output codes (before out_scale) as functions of the photocurrent: "
-                                       "the array's median response, droop and dark current included");
+    cJSON_AddStringToObject(j, "note",
+                            "corrected output codes (before out_scale) as functions of the photocurrent: "
+                            "the array's median response, droop and dark current included");
     return j;
 }
 
@@ -377,6 +381,8 @@ static void print_summary(const cal_opts *o, const cal_run *r, const verify_ctx 
         if (res->n_status[st])
             cJSON_AddNumberToObject(why, wdr_fit_status_name(st), (double)res->n_status[st]);
     cJSON_AddNumberToObject(j, "table_bytes", (double)r->table_len);
+    if (r->form_auto.tried)
+        cJSON_AddItemToObject(j, "form_auto", cal_form_choice_json(&r->form_auto));
     if (vr->n)
         cJSON_AddItemToObject(j, "verification", verification_json(v, r, vr));
     cJSON_AddItemToObject(j, "nominal_response", nominal_json(r));
@@ -407,12 +413,16 @@ static int calibrate_with(const cal_opts *o, const wdr_cal_source *src, cal_run 
         return wdrctl_fail(EX_USAGE, "calibrate: --select %d: model %s needs at least %d levels (--select %d..%d)",
                            o->select_n, cal_model_name(model), least, least, GRID_LEVELS);
     int rc = cal_plan_currents(o, src, r, o->select_n ? o->select_n : cal_default_currents(model));
+    cal_form_frames_how how = {v->can_light, v->temporal};
+    r->table_later = o->form == CAL_FORM_AUTO && model == WDR_MODEL_SPLINE;
     if (rc == EX_OK)
         rc = cal_acquire_and_fit(o, src, r, sensor_id, op_id);
     if (rc == EX_OK && !within_flag_limit(o, r)) { /* the figures, then the failure: no table leaves */
         print_summary(o, r, v, &vr);
         return fail_flagged(o, r);
     }
+    if (rc == EX_OK && r->table_later)
+        rc = cal_choose_form(src, &how, sensor_id, op_id, r);
     if (rc == EX_OK && o->out)
         rc = write_file(o->out, r->table, r->table_len);
     if (rc == EX_OK)
@@ -445,7 +455,8 @@ static const cli_option calibrate_rows[] = {
      "of the chip (default " CAL_MAX_FLAGGED_DEFAULT ")"},
     CAL_ROW_OUT_SCALE,
     {"form", 0, CLI_CHOICE, CAL_O(form), NULL,
-     "table form; auto (default): the smallest that meets 1 % analog and 1.2x the floor for the operator",
+     "table form; auto (default): the smallest whose error, measured on this chip's frames, is within max(1 %, "
+     "1.2x the fit's own) at every judged current",
      .choices = cal_forms, .what = "table form"},
     CAL_ROW_SAMPLE,
     CAL_ROW_SEED,
@@ -475,30 +486,6 @@ static const char *sim_conditions(const cal_opts *o)
          "simulated chip: converters (partly) off, temporal noise on"},
         {"simulated chip: ADC and DAC on, temporal noise off", "simulated chip: ADC and DAC on, temporal noise on"}};
     return names[o->adc && o->dac][o->noise != 0];
-}
-
-/* --form auto (spline): the smallest form whose measured figures for this operator meet the
- * target, printed with the figure of each smaller form it passed over; other models keep their
- * own form (Moebius for simple3, the polynomial otherwise). */
-static void choose_form(wdr_cal_config *cfg, const wdr_operator_info *op)
-{
-    const wdr_form_figure *rej[WDR_FORM_AUTO_MAX];
-    int nr;
-    wdr_form_target t = WDR_FORM_TARGET_DEFAULT;
-    if (cfg->model != WDR_MODEL_SPLINE)
-        return;
-    const wdr_form_figure *f = wdr_form_auto(wdr_form_figures, wdr_form_figures_n, op->id, t, rej, &nr);
-    for (int k = 0; k < nr; k++)
-        fprintf(stderr, "form auto: %s rejected for %s: %.2f %% analog (target %.2g %%), %.2fx the 12-bit floor (target %.2gx)\n",
-                cal_form_name(rej[k]->form), op->name, rej[k]->analog_pct, t.analog_pct, rej[k]->floor_ratio,
-                t.floor_ratio);
-    if (!f) {
-        fprintf(stderr, "form auto: no measured form meets the target for %s: basis-8\n", op->name);
-        return; /* wdr_cal_config_defaults' basis-8 */
-    }
-    cfg->form = f->form, cfg->n_coeffs = f->n_coeffs;
-    fprintf(stderr, "form auto: %s for %s (%.0f B/px; measured: %.2f %% analog worst, %.2fx the 12-bit floor)\n",
-            cal_form_name(f->form), op->name, f->bytes_px, f->analog_pct, f->floor_ratio);
 }
 
 int cmd_calibrate(int argc, char **argv)
@@ -534,7 +521,7 @@ int cmd_calibrate(int argc, char **argv)
             (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK &&
             (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &src, &design, &r.margin)) == EX_OK) &&
             (rc = require_lut(&d, o.device)) == EX_OK) {
-            cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits); /* the board's operator is unknown here: basis-8 */
+            cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits);
             cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */
             v.can_light = d.board.simulated, v.design = &design;
             rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model, &v);
@@ -552,14 +539,12 @@ int cmd_calibrate(int argc, char **argv)
     if ((rc = cal_load_board(o.board, &b)) != EX_OK || (rc = cal_open_sim(&o, &b, &c)) != EX_OK)
         return rc;
     cal_set_output(&o, &r.cfg, (unsigned)b.adc_bits);
-    if (o.form == CAL_FORM_AUTO)
-        choose_form(&r.cfg, op);
     if (o.dac)
         cal_set_step(&b, &r.cfg);
     r.cfg.tie_codes = o.adc ? r.cfg.tie_codes : 1e-3; /* unquantised codes: only a clipped pixel ties */
     wdr_cal_source src = {b.width, b.height, wdr_cal_sim_capture, &c.ss};
-    verify_ctx v = {.can_light = 1, .quantised = o.adc, .temporal = o.noise, .design = &c.design,
-                    .holds_with = sim_conditions(&o)};
+    verify_ctx v = {
+        .can_light = 1, .quantised = o.adc, .temporal = o.noise, .design = &c.design, .holds_with = sim_conditions(&o)};
     rc = verify_display(&o, &b, &v);
     r.margin = c.margin;
     if (rc == EX_OK)

@@ -1,7 +1,7 @@
 /* Each table form at 12 bits against its floor: the worst over 31 currents of the table's contrast
  * error with the ADC and DAC on (temporal noise off) over sqrt(analog^2 + quantisation floor^2),
- * the measure test_cal_endslope holds the default table to (1.2x) and `--form auto`'s second
- * target. 64x48 chip, seed 11, the operator's ramp, spline through 19 levels, the same fit for
+ * the measure test_cal_endslope holds the default table to (1.2x) and the matrix holds
+ * `--form auto`'s choice to. 64x48 chip, seed 11, the operator's ramp, spline through 19 levels, the same fit for
  * every form (one per chip and condition).
  *
  *   bench_floor [--quick] [--ops reinhard,drago,...]      (--quick: Reinhard, compact only) */

@@ -30,15 +30,18 @@ typedef struct study_chip {
     double lo, hi, x[STUDY_TEST];
 } study_chip;
 
-/* A w x h chip of the given seed under operator op. */
-static inline int study_open_chip(study_chip *c, const char *op, int w, int h, uint32_t seed)
+/* A w x h chip of the given seed under operator op, every mismatch figure of the board times
+ * mismatch (1: the board's). */
+static inline int study_open_chip_mismatch(study_chip *c, const char *op, int w, int h, uint32_t seed, double mismatch)
 {
     wdr_board b;
     char err[512];
     wdr_board_defaults(&b);
     b.width = w, b.height = h;
+    b.avt_mv_um *= mismatch, b.abeta_pct_um *= mismatch, b.c_pd_sigma_pct *= mismatch, b.dark_sigma_ln *= mismatch;
     c->w = w, c->h = h;
-    if (wdr_cal_sim_setup(&b, op, seed, 0, 0.06, &c->sim, &c->lut, err, sizeof err))
+    if (wdr_cal_sim_setup(&b, op, seed, 0, 0.06 * mismatch, &c->sim, &c->lut, err,
+                          sizeof err)) /* margin grows with the spread */
         return fprintf(stderr, "bench_target: %s: %s\n", op, err), 1;
     wdr_sim_set_effect(c->sim, WDR_FX_DAC_QUANT, WDR_FX_OFF);
     c->ss = (wdr_cal_simsrc){c->sim, 0, 500};
@@ -54,6 +57,10 @@ static inline int study_open_chip(study_chip *c, const char *op, int w, int h, u
     return 0;
 }
 
+static inline int study_open_chip(study_chip *c, const char *op, int w, int h, uint32_t seed)
+{
+    return study_open_chip_mismatch(c, op, w, h, seed, 1);
+}
 static inline int study_open(study_chip *c, const char *op)
 {
     return study_open_chip(c, op, STUDY_W, STUDY_H, STUDY_SEED);

@@ -2,7 +2,7 @@
  * simulated chip, nothing computed here but counts and maxima. */
 #include "cal_matrix.h"
 #include "cal_design.h"
-#include "cal_form_auto.h"
+#include "cal_form_measure.h"
 #include "cal_metrics.h"
 #include "cal_select.h"
 #include "operators.h"
@@ -128,8 +128,8 @@ static int plant(chip *c)
 static int design_for(chip *c, const char *op, char *err, int errlen)
 {
     const int middle_row = c->b.height / 2; /* the row whose hold time the design assumes */
-    return wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim), middle_row * c->b.row_time_s,
-                               1, err, errlen);
+    return wdr_cal_design_init(&c->design, &c->b, op, wdr_sim_integration_time(c->sim), middle_row * c->b.row_time_s, 1,
+                               err, errlen);
 }
 
 static int size_margin(chip *c, const char *op, char *err, int errlen)
@@ -216,22 +216,30 @@ static int fit(chip *c, int model, double lo, double hi, wdr_cal_result *res, ch
     return rc != 0;
 }
 
-/* --form auto (cmd_calibrate.c choose_form): the spline takes the form table's choice, basis-8
- * when none meets the target; the other models keep their own form. */
-static void auto_form(int model, const char *op, int *form, int *n)
+/* --form auto (host/wdrctl/cal_form_choice.c): the spline's form chosen on this chip's 12-bit
+ * frames (the converters a user's chip has), at the judging currents calibrate takes, one frame
+ * each (temporal noise off); basis-8 when no form meets the target. The other models keep their
+ * own form. */
+static void auto_form(chip *q, const wdr_cal_result *res, int model, double lo, double hi, int *form, int *n)
 {
     wdr_cal_config d;
     wdr_cal_config_defaults(&d, model);
     *form = d.form, *n = d.n_coeffs;
-    const wdr_operator_info *oi = wdr_operator_info_by_name(op);
-    if (model != WDR_MODEL_SPLINE || !oi)
+    if (model != WDR_MODEL_SPLINE || !res)
         return;
-    const wdr_form_figure *rej[WDR_FORM_AUTO_MAX];
-    int nr;
-    const wdr_form_figure *f =
-        wdr_form_auto(wdr_form_figures, wdr_form_figures_n, oi->id, WDR_FORM_TARGET_DEFAULT, rej, &nr);
-    if (f)
-        *form = f->form, *n = f->n_coeffs;
+    char err[512];
+    wdr_form_trial tr[WDR_FORM_CANDIDATES];
+    int nt;
+    wdr_form_judging j = {WDR_FORM_JUDGING_CURRENTS, 1, 0, 7000000};
+    int k = wdr_form_choose_on_source(res, &q->src, lo, hi, &j, WDR_FORM_TARGET_DEFAULT, 1, 1, tr, &nt, NULL, err,
+                                      sizeof err);
+    if (k == -2) {
+        fprintf(stderr, "cal_matrix: form auto: %s (basis-8 kept)\n", err);
+        return;
+    }
+    if (k < 0) /* none met: the last tried, basis-8 */
+        k = nt - 1;
+    *form = tr[k].form, *n = tr[k].n_coeffs;
 }
 
 /* Build the form's table from res and judge it at x[]: flags counted against the truth, the
@@ -326,7 +334,7 @@ int cm_run_chip(const cm_setup *s, int model, const char *op, uint64_t seed, dou
         cell->model = model, cell->op = op, cell->seed = seed, cell->mismatch = mismatch;
         cell->form = forms[f], cell->n_coeffs = n_coeffs[f], cell->asked_auto = forms[f] == CM_FORM_AUTO;
         if (cell->asked_auto)
-            auto_form(model, op, &cell->form, &cell->n_coeffs);
+            auto_form(&c[1], fitted[1] ? &res[1] : NULL, model, lo, hi, &cell->form, &cell->n_coeffs);
         int same = -1; /* auto's choice already built: the same cell */
         for (int g = 0; g < f && cell->asked_auto; g++)
             if (!cells[g].asked_auto && cells[g].form == cell->form && cells[g].n_coeffs == cell->n_coeffs)

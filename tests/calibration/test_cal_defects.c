@@ -23,7 +23,7 @@
 #include <stddef.h>
 #include <cmocka.h>
 #include "cal_design.h"
-#include "cal_form_auto.h"
+#include "cal_form_measure.h"
 #include "cal_select.h"
 #include "operators.h"
 #include "cal_test_support.h"
@@ -67,7 +67,7 @@ typedef struct chip {
     wdr_cal_source src;
     long np;
     const char *op;
-    int form_auto;
+    int form_auto, noise;
 } chip;
 
 static int vga;    /* argument "vga": the full board size */
@@ -104,13 +104,30 @@ static void chip_open(chip *c, const chip_case *cc)
     c->src = (wdr_cal_source){c->b.width, c->b.height, wdr_cal_sim_capture, &c->ss};
     c->np = (long)cc->w * cc->h;
     c->op = cc->op;
-    c->form_auto = cc->form_auto;
+    c->form_auto = cc->form_auto, c->noise = cc->noise;
 }
 
 static void chip_close(chip *c)
 {
     wdr_sim_destroy(c->sim);
     free(c->lut);
+}
+
+/* --form auto as calibrate runs it (cal_form_choice.c): on fresh frames of this chip, the
+ * smallest form that meets the target goes into res->cfg; basis-8 when none does. */
+static void choose_form(chip *c, wdr_cal_result *res, double lo, double hi, int frames)
+{
+    char err[512];
+    wdr_form_trial tr[WDR_FORM_CANDIDATES];
+    int nt;
+    wdr_form_judging j = {WDR_FORM_JUDGING_CURRENTS, frames < 4 ? frames : 4, c->noise, 6000000};
+    int k = wdr_form_choose_on_source(res, &c->src, lo, hi, &j, WDR_FORM_TARGET_DEFAULT, 1, 1, tr, &nt, NULL, err,
+                                      sizeof err);
+    if (k == -2)
+        fail_msg("form auto: %s", err);
+    if (k < 0)
+        k = nt - 1;
+    res->cfg.form = tr[k].form, res->cfg.n_coeffs = tr[k].n_coeffs;
 }
 
 /* Calibrate as `wdrctl calibrate` does; lv keeps the levels (the kinds are judged on them). */
@@ -131,13 +148,6 @@ static void calibrate_default(chip *c, wdr_cal_result *res, wdr_cal_levels *lv, 
     cfg.step_codes = (b->dac_hi_v - b->dac_lo_v) / ((1u << b->dac_bits) - 1u) * b->adc_gain *
                      ((1u << b->adc_bits) - 1u) / (b->adc_hi_v - b->adc_lo_v);
     cfg.tie_codes = c->ss.quantised ? cfg.tie_codes : 1e-3;
-    /* the table form the board gets (wdrctl calibrate --form auto) */
-    const wdr_form_figure *rej[WDR_FORM_AUTO_MAX], *f;
-    int nr;
-    f = wdr_form_auto(wdr_form_figures, wdr_form_figures_n, wdr_operator_info_by_name(c->op)->id,
-                      WDR_FORM_TARGET_DEFAULT, rej, &nr);
-    if (f && c->form_auto)
-        cfg.form = f->form, cfg.n_coeffs = f->n_coeffs;
     wdr_cal_choice ch;
     if (wdr_cal_select_currents(&grid, &cfg, N_CURRENTS, lo, hi, 256, &ch, err, sizeof err))
         fail_msg("selection: %s", err);
@@ -149,6 +159,8 @@ static void calibrate_default(chip *c, wdr_cal_result *res, wdr_cal_levels *lv, 
     assert_int_equal(wdr_cal_acquire(&c->src, ch.amps, ch.n, fc.frames, 1, NULL, NULL, lv, err, sizeof err), WDR_OK);
     if (wdr_cal_fit_array(lv, &cfg, res, err, sizeof err))
         fail_msg("fit: %s", err);
+    if (c->form_auto) /* the table form the board gets (wdrctl calibrate --form auto), on this chip's frames */
+        choose_form(c, res, lo, hi, fc.frames);
 }
 
 /* ---- kinds, position by position ---- */

@@ -87,14 +87,11 @@ typedef struct known {
 } known;
 
 static const known known_failures[] = {
-    /* item 4: `--form auto` trusts figures measured on one 64x48 chip (seed 11) */
-    {WDR_MODEL_SPLINE, "reinhard", 1, 1, 0, CHECK_ANALOG, 1.228, "auto's compact: its table says 0.83 %"},
-    {WDR_MODEL_SPLINE, "reinhard", 2, 1, 1, CHECK_FLOOR, 1.677, "compact at the dark end, 4.49e-14 A"},
-    {WDR_MODEL_SPLINE, "schlick", 3, 1, 0, CHECK_ANALOG, 3.036, "auto's shifted: its table says 0.47 %"},
+    /* item 4: `--form auto` chooses on the 12-bit chip's frames (cal_form_measure.h); its compact
+     * keeps the 12-bit error within 1.2x the fit's own, and the analog excess hides under it */
+    {WDR_MODEL_SPLINE, "reinhard", 1, 1, 0, CHECK_ANALOG, 1.268, "compact chosen at 12 bits, analog 1.27 %"},
     /* item 3 (the margin sized from the chip) brought the 2x cells' flags to 0 (were 4,534 and
-     * 2,345 ppm, "flat response", with the fixed 60 mV); the compact form at 2x stays open */
-    {WDR_MODEL_SPLINE, "reinhard", 1, 2, 0, CHECK_ANALOG, 2.312, "compact at 2x mismatch"},
-    {WDR_MODEL_SPLINE, "reinhard", 1, 2, 1, CHECK_FLOOR, 1.457, "compact at 2x mismatch, 3.1e-9 A"},
+     * 2,345 ppm, "flat response", with the fixed 60 mV); measured auto gives the 2x chip poly-5 */
     /* item 5: one planted defect not flagged on this chip */
     {WDR_MODEL_SPLINE, "schlick", 3, 1, 0, CHECK_FOUND, 1, "11 of 12 found"},
     {WDR_MODEL_SPLINE, "schlick", 3, 1, 1, CHECK_FOUND, 1, "11 of 12 found"},

@@ -43,6 +43,10 @@ grep "stopped after" "$dir/once.log"
 flagged=$(sed -n 's/^[[:space:]]*"pixels_flagged":[[:space:]]*\([0-9]*\).*/\1/p' "$dir/once.json" | head -n 1)
 [ "$flagged" = 0 ] || fail "a clean chip flagged $flagged pixels"
 grep -q '"within":[[:space:]]*true' "$dir/once.json" || fail "--json lacks max_flagged within: true"
+# --form auto (the default) on a simulated board: judged on fresh frames the board lit, its choice
+# in the JSON and on stderr
+grep -q '"frames":[[:space:]]*"fresh"' "$dir/once.json" || fail "--json lacks form_auto judged on fresh frames"
+grep -q "^form auto: [a-z]* chosen" "$dir/once.err" || fail "no form auto choice printed"
 echo "ok: --wait found a board starting 1 s late; one connection served calibrate --lut --upload --json on a --once board; 0 flagged"
 
 # ---- 2. no LUT on the board ----
@@ -63,7 +67,7 @@ echo "ok: no LUT: exit 78 and the reason"
 
 # ---- 3. --max-flagged ----
 "$wdrctl" lut upload "$dir/r.lut" >/dev/null || fail "lut upload"
-"$wdrctl" calibrate --frames 2 --max-flagged 8 --upload -o "$dir/pass.bin" --json >"$dir/pass.json" 2>"$dir/pass.err"
+"$wdrctl" calibrate --frames 2 --form compact --max-flagged 8 --upload -o "$dir/pass.bin" --json >"$dir/pass.json" 2>"$dir/pass.err"
 rc=$?
 [ "$rc" -eq 0 ] || fail "--max-flagged 8 with 8 planted defects: exit $rc"
 flagged=$(sed -n 's/^[[:space:]]*"pixels_flagged":[[:space:]]*\([0-9]*\).*/\1/p' "$dir/pass.json" | head -n 1)
