@@ -128,7 +128,7 @@ static int try_form(const wdr_cal_result *res, const uint8_t *mask, const wdr_fo
     uint8_t *tb;
     size_t tl;
     wdr_cal_view tab;
-    double table_pct[WDR_FORM_MAX_CURRENTS];
+    double table_pct[WDR_FORM_MAX_CURRENTS] = {0};
     char why[400];
     alt.cfg.form = tr->form, alt.cfg.n_coeffs = tr->n_coeffs;
     if (wdr_cal_build_table(&alt, sensor_id, operator_id, &tb, &tl, why, sizeof why))
@@ -163,7 +163,7 @@ int wdr_form_choose_measured(const wdr_cal_result *res, const wdr_form_frames *f
                              int operator_id, wdr_form_trial *trials, int *n_tried, wdr_form_table *table, char *err,
                              int errlen)
 {
-    double model_pct[WDR_FORM_MAX_CURRENTS], noise_pct[WDR_FORM_MAX_CURRENTS];
+    double model_pct[WDR_FORM_MAX_CURRENTS] = {0}, noise_pct[WDR_FORM_MAX_CURRENTS] = {0};
     double *xh = malloc(sizeof(double) * (size_t)res->width * (size_t)res->height);
     uint8_t *mask = sample_mask(res);
     int chosen = -1;
@@ -173,7 +173,8 @@ int wdr_form_choose_measured(const wdr_cal_result *res, const wdr_form_frames *f
                snprintf(err, (size_t)errlen, xh && mask ? "%d judged currents" : "out of memory", f->n), -2;
     if (model_and_noise(res, mask, f, xh, model_pct, noise_pct))
         chosen = -2, snprintf(err, (size_t)errlen, "the model's inverse failed");
-    remove_noise(model_pct, f->frames_b ? noise_pct : NULL, f->n);
+    if (chosen != -2) /* every figure measured */
+        remove_noise(model_pct, f->frames_b ? noise_pct : NULL, f->n);
     for (int c = 0; chosen == -1 && c < WDR_FORM_CANDIDATES; c++) {
         wdr_form_trial *tr = &trials[(*n_tried)++];
         memset(tr, 0, sizeof *tr);
