@@ -144,7 +144,7 @@ int hal_board_info_get(hal_board_info *out)
     out->adc_bits = (uint8_t)B.board.adc_bits;
     out->dac_bits = (uint8_t)B.board.dac_bits;
     out->row_time_ns = (uint32_t)llround(B.board.row_time_s * 1e9);
-    out->caps = HAL_CAP_ILLUMINANT;
+    out->caps = hal_sim_hand_light_on() ? 0u : HAL_CAP_ILLUMINANT; /* by hand: a real board's light */
     /* Board names longer than the HAL's field are cut, as the board file allows 63 bytes. */
     memcpy(out->name, B.board.name, sizeof out->name - 1);
     out->name[sizeof out->name - 1] = 0;
@@ -208,6 +208,7 @@ int hal_ramp_start(const wdr_lut_view *lut)
         return WDR_E_GEOMETRY;
     if (wdr_sim_set_lut(B.sensor, lut) != WDR_OK)
         return WDR_E_INVAL;
+    hal_sim_hand_light_apply(); /* what a person set before this frame */
     uint64_t t_int_ns = (uint64_t)lut->h.t_integration_ticks * lut->h.tick_ps / 1000u;
     B.exposed = 0;
     B.converted = 0;
@@ -242,12 +243,17 @@ static void forget_scene(void)
     B.scene_saved = 0;
 }
 
-int hal_set_illuminant(double amps)
+int hal_sim_light_uniform(double amps)
 {
     if (!isfinite(amps) || amps < 0)
         return WDR_E_INVAL;
     int rc = save_scene();
     return rc ? rc : wdr_sim_set_uniform(B.sensor, amps);
+}
+
+int hal_set_illuminant(double amps)
+{
+    return hal_sim_hand_light_on() ? WDR_E_UNSUPPORTED : hal_sim_light_uniform(amps);
 }
 
 int hal_restore_scene(void)
@@ -261,7 +267,7 @@ int hal_restore_scene(void)
     return rc;
 }
 
-int hal_sim_set_illuminant(double amps) { return hal_set_illuminant(amps); }
+int hal_sim_set_illuminant(double amps) { return hal_sim_light_uniform(amps); }
 
 int hal_sim_set_scene(const float *amps)
 {
@@ -298,6 +304,7 @@ int hal_sim_setup(const hal_sim_config *cfg, char *err, int errlen)
         rc = hal_sim_flash_setup(cfg, err, errlen);
     if (rc == WDR_OK)
         rc = hal_sim_image_setup(cfg, err, errlen);
+    hal_sim_hand_light_setup(cfg->hand_light_path);
     if (rc == WDR_OK && cfg->socket_path)
         rc = hal_sim_usb_setup(cfg->socket_path, err, errlen);
     B.ready = 1;
@@ -320,6 +327,7 @@ void hal_sim_teardown(void)
     free(B.adc_row);
     free(B.scene_amps);
     memset(&B, 0, sizeof B);
+    hal_sim_hand_light_setup(NULL);
     hal_sim_exit_on_disconnect = 0;
     hal_sim_eof_fd = -1;
 }

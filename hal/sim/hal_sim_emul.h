@@ -21,6 +21,9 @@ typedef struct hal_sim_config {
     const char *flash_path;   /* file that keeps the flash between runs; NULL: RAM only */
     uint32_t flash_block_size, flash_block_count, flash_prog_size; /* 0: defaults below */
     const char *image_flash_path; /* file that keeps the image flash (wdr-simboard: FLASH.images); NULL: RAM */
+    const char *hand_light_path;  /* a real board's light: no HAL_CAP_ILLUMINANT, and the photocurrent (A)
+                                     or "scene" a person sets, read from this file at each integration's
+                                     start (hal_sim_hand_light.c); NULL: the board lights itself */
 } hal_sim_config;
 
 #define HAL_SIM_FLASH_BLOCK_SIZE 4096u

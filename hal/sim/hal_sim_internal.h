@@ -43,6 +43,14 @@ void hal_sim_usb_pump(int timeout_ms);
 /* 1 while a bulk IN transfer is still being written to the host. */
 int hal_sim_usb_tx_pending(void);
 
+/* A real board's light, set by hand in a file (hal_sim_hand_light.c): setup (NULL: self-lit), on,
+ * and apply (read the file, light the sensor as it says; at each integration's start). */
+void hal_sim_hand_light_setup(const char *path);
+int hal_sim_hand_light_on(void);
+void hal_sim_hand_light_apply(void);
+/* The uniform light, whoever sets it (the firmware's command, the emulator, the hand light). */
+int hal_sim_light_uniform(double amps);
+
 /* Loop control shared with the USB part. */
 extern int hal_sim_exit_on_disconnect;
 extern int hal_sim_eof_fd;

@@ -2,6 +2,7 @@
  * served on a local socket for wdrctl (--device sim:PATH).
  *
  *   wdr-simboard --board FILE --scene FILE [--socket PATH] [--flash FILE] [--firmware IMG] [--seed N] [--once]
+ *                [--light-by-hand FILE]
  *
  * Ends cleanly on SIGTERM or SIGINT, when stdin is a pipe that reaches EOF (the parent went
  * away), or with --once when the first host disconnects. */
@@ -27,7 +28,7 @@
 #include <unistd.h>
 
 typedef struct simboard_opts {
-    const char *board, *scene, *socket, *flash, *firmware;
+    const char *board, *scene, *socket, *flash, *firmware, *light_by_hand;
     uint64_t seed;
     int seed_given, once;
     const char *exposure_text;
@@ -51,6 +52,9 @@ static const cli_option rows[] = {
     {"once", 0, CLI_FLAG, O(once), NULL, "exit when the first host disconnects"},
     {"exposure", 0, CLI_STRING, O(exposure_text), "auto|A",
      "auto: the scene's log-average onto the ramp's key; or a scale in A per cd/m2"},
+    {"light-by-hand", 0, CLI_STRING, O(light_by_hand), "FILE",
+     "act as a real board: it cannot light itself (no illuminant in its INFO), and a person's lab light is "
+     "read from FILE at each frame: a photocurrent in A per pixel, or 'scene' (missing: the scene)"},
     {0}};
 #undef O
 
@@ -142,7 +146,7 @@ static int start_board(const simboard_opts *o, wdr_board *b)
         snprintf(image_path, sizeof image_path, "%s.images", o->flash);
     hal_sim_config cfg = {.board = b, .seed = o->seed_given ? o->seed : scene.chip_seed,
                           .frame_seed = scene.frame_seed, .socket_path = o->socket, .flash_path = o->flash,
-                          .image_flash_path = o->flash ? image_path : NULL};
+                          .image_flash_path = o->flash ? image_path : NULL, .hand_light_path = o->light_by_hand};
     rc = hal_sim_setup(&cfg, err, sizeof err);
     if (rc != WDR_OK) {
         fprintf(stderr, "wdr-simboard: %s\n", err);

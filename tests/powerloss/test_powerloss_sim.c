@@ -151,7 +151,7 @@ static int setup(void **state)
     board.width = W;
     board.height = H;
     board.sensor_id = SENSOR;
-    hal_sim_config cfg = {&board, 1, 1, NULL, NULL, 4096, 128, 128, NULL};
+    hal_sim_config cfg = {&board, 1, 1, NULL, NULL, 4096, 128, 128, NULL, NULL};
     if (hal_sim_setup(&cfg, err, sizeof err)) {
         fprintf(stderr, "hal_sim_setup: %s\n", err);
         return -1;
