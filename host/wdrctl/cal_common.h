@@ -130,7 +130,6 @@ typedef struct cal_form_choice {
     wdr_form_trial trial[WDR_FORM_CANDIDATES];
     int tried, chosen;    /* chosen: index into trial, -1 when none met (basis-8 kept) */
     int currents, frames; /* judged currents, frames averaged at each */
-    int fresh;            /* 1: fresh frames at lit currents; 0: the calibration's own levels */
     int noise_removed;    /* the temporal noise measured (a second set of frames) and taken out */
     wdr_form_target target;
 } cal_form_choice;
@@ -151,10 +150,10 @@ typedef struct cal_run {
 } cal_run;
 
 /* --form auto for a spline fit (r->res, r->table already built): the smallest form meeting the
- * target on this chip's frames becomes r->table, and r->cfg says which. how->can_light: fresh
- * frames from src at currents over [r->lo, r->hi] (temporal: two sets, the noise measured and
- * taken out); otherwise the calibration's own levels (a real board: nobody is asked to set more
- * light). Prints each rejected form. @return a sysexits code */
+ * target on this chip's frames becomes r->table, and r->cfg says which: judged on fresh frames
+ * from src at currents over [r->lo, r->hi] (temporal: two sets, the noise measured and taken
+ * out); when !how->can_light a person sets each of those currents, asked once each.
+ * Prints each rejected form. @return a sysexits code */
 typedef struct cal_form_frames_how {
     int can_light, temporal;
 } cal_form_frames_how;

@@ -19,29 +19,45 @@ static const struct {
     {WDR_FORM_BASIS, 8},
 };
 
+/* The average of m captures at amps, numbered first_no onwards, into out. */
+static int capture_average(const wdr_cal_source *src, double amps, int m, int first_no, double *acc, float *one,
+                           float *out)
+{
+    long np = (long)src->width * src->height;
+    int rc = WDR_OK;
+    memset(acc, 0, sizeof(double) * (size_t)np);
+    for (int f = 0; !rc && f < m; f++) {
+        rc = src->capture(src->ctx, amps, first_no + f, one);
+        for (long i = 0; !rc && i < np; i++)
+            acc[i] += one[i];
+    }
+    for (long i = 0; !rc && i < np; i++)
+        out[i] = (float)(acc[i] / m);
+    return rc;
+}
+
 int wdr_form_frames_capture(const wdr_cal_source *src, const double *x, int n, int frames_avg, int first_frame_no,
-                            float **frames)
+                            float **frames, float **frames_b)
 {
     long np = (long)src->width * src->height;
     int m = frames_avg > 0 ? frames_avg : 1;
-    float *out = malloc(sizeof(float) * (size_t)np * (size_t)n), *one = malloc(sizeof(float) * (size_t)np);
+    float *a = malloc(sizeof(float) * (size_t)np * (size_t)n), *one = malloc(sizeof(float) * (size_t)np);
+    float *b = frames_b ? malloc(sizeof(float) * (size_t)np * (size_t)n) : NULL;
     double *acc = malloc(sizeof(double) * (size_t)np);
-    int rc = out && one && acc ? WDR_OK : WDR_E_NOMEM;
-    for (int k = 0; !rc && k < n; k++) {
-        memset(acc, 0, sizeof(double) * (size_t)np);
-        for (int f = 0; !rc && f < m; f++) {
-            rc = src->capture(src->ctx, x[k], first_frame_no + WDR_FORM_FRAME_STRIDE * k + f, one);
-            for (long i = 0; !rc && i < np; i++)
-                acc[i] += one[i];
-        }
-        for (long i = 0; !rc && i < np; i++)
-            out[(long)k * np + i] = (float)(acc[i] / m);
+    int rc = a && one && acc && (b || !frames_b) ? WDR_OK : WDR_E_NOMEM;
+    for (int k = 0; !rc && k < n; k++) { /* both sets at one current before the next: one light each */
+        int no = first_frame_no + WDR_FORM_FRAME_STRIDE * k;
+        rc = capture_average(src, x[k], m, no, acc, one, a + (long)k * np);
+        if (!rc && b)
+            rc = capture_average(src, x[k], m, no + WDR_FORM_FRAME_STRIDE / 2, acc, one, b + (long)k * np);
     }
     free(one);
     free(acc);
     if (rc)
-        free(out), out = NULL;
-    *frames = out;
+        free(a), free(b), a = b = NULL;
+    *frames = a;
+    if (frames_b)
+        *frames_b = b;
     return rc;
 }
 
@@ -202,9 +218,7 @@ int wdr_form_choose_on_source(const wdr_cal_result *res, const wdr_cal_source *s
     *n_tried = 0;
     for (int k = 0; k < n; k++)
         x[k] = lo * pow(hi / lo, (k + WDR_FORM_JUDGING_OFFSET) / n);
-    rc = wdr_form_frames_capture(src, x, n, j->frames_avg, j->first_frame_no, &a);
-    if (!rc && j->temporal)
-        rc = wdr_form_frames_capture(src, x, n, j->frames_avg, j->first_frame_no + WDR_FORM_FRAME_STRIDE / 2, &b);
+    rc = wdr_form_frames_capture(src, x, n, j->frames_avg, j->first_frame_no, &a, j->temporal ? &b : NULL);
     wdr_form_frames f = {a, b, x, n};
     if (rc)
         snprintf(err, (size_t)errlen, "frames over %.3g..%.3g A failed: %s", lo, hi, wdr_strerror(rc));
@@ -214,3 +228,4 @@ int wdr_form_choose_on_source(const wdr_cal_result *res, const wdr_cal_source *s
     free(b);
     return chosen;
 }
+

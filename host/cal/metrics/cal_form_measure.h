@@ -16,7 +16,7 @@
  * it does so at every judged current.
  *
  * Typical use:
- *     wdr_form_frames_capture(src, x, n, frames_avg, first_no, &a);   // and again for b
+ *     wdr_form_frames_capture(src, x, n, frames_avg, first_no, &a, &b);
  *     wdr_form_frames f = {a, b, x, n};
  *     wdr_form_table tab = {0};
  *     int k = wdr_form_choose_measured(res, &f, t, sid, op, trials, &nt, &tab, err, sizeof err);
@@ -75,9 +75,12 @@ typedef struct wdr_form_table {
 
 /* n frames into *frames (malloc'd, n * width * height, frame k at x[k]), each the average of
  * frames_avg captures numbered first_frame_no + WDR_FORM_FRAME_STRIDE k onwards (frames_avg at
- * most WDR_FORM_FRAME_STRIDE). @retval WDR_OK, WDR_E_NOMEM, the source's */
+ * most WDR_FORM_FRAME_STRIDE / 2); with frames_b (may be NULL) a second independent set into
+ * *frames_b, its captures numbered WDR_FORM_FRAME_STRIDE / 2 on. Both sets at one current before
+ * the next: a board lit by hand asks for each current once. @retval WDR_OK, WDR_E_NOMEM, the
+ * source's */
 int wdr_form_frames_capture(const wdr_cal_source *src, const double *x, int n, int frames_avg, int first_frame_no,
-                            float **frames);
+                            float **frames, float **frames_b);
 
 /* Try the candidate forms on res (a spline fit) smallest first, until one meets t on f (at most
  * WDR_FORM_MAX_CURRENTS currents). trials (WDR_FORM_CANDIDATES) gets every form tried, *n_tried of
@@ -99,7 +102,8 @@ typedef struct wdr_form_judging {
 #define WDR_FORM_JUDGING_CURRENTS 31
 #define WDR_FORM_JUDGING_OFFSET 0.37
 
-/* wdr_form_choose_measured on fresh frames from src (uniform light it sets itself), as j says.
+/* wdr_form_choose_measured on fresh frames from src (uniform light it sets itself, or a person
+ * sets at each current, once), as j says.
  * @return as wdr_form_choose_measured (a failed capture: -2, err names the current) */
 int wdr_form_choose_on_source(const wdr_cal_result *res, const wdr_cal_source *src, double lo, double hi,
                               const wdr_form_judging *j, wdr_form_target t, uint32_t sensor_id, int operator_id,
