@@ -128,7 +128,7 @@ typedef struct sim_chip {
 /* --form auto, measured on the chip (cal_form_choice.c): the forms tried and the one chosen. */
 typedef struct cal_form_choice {
     wdr_form_trial trial[WDR_FORM_CANDIDATES];
-    int tried, chosen;    /* chosen: index into trial, -1 when none met (basis-8 kept) */
+    int tried, chosen;    /* chosen: index into trial, -1 when none met (the nearest kept) */
     int currents, frames; /* judged currents, frames averaged at each */
     int noise_removed;    /* the temporal noise measured (a second set of frames) and taken out */
     wdr_form_target target;

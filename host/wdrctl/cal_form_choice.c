@@ -43,8 +43,11 @@ static void print_choice(const cal_form_choice *c)
             c->target.analog_pct, c->target.floor_ratio);
     for (int k = 0; k < c->tried; k++)
         print_trial(&c->trial[k], k == c->chosen ? "chosen" : "rejected");
-    if (c->chosen < 0)
-        fprintf(stderr, "form auto: no form meets the target on this chip: basis-8, the most accurate\n");
+    if (c->chosen < 0) {
+        const wdr_form_trial *t = &c->trial[wdr_form_nearest(c->trial, c->tried)];
+        fprintf(stderr, "form auto: no form meets the target on this chip: %s kept, the nearest to it (%.3gx its allowance)\n",
+                cal_form_name(t->form), t->excess);
+    }
 }
 
 int cal_choose_form(const wdr_cal_source *src, const cal_form_frames_how *how, uint32_t sensor_id, int op_id,
@@ -67,7 +70,7 @@ int cal_choose_form(const wdr_cal_source *src, const cal_form_frames_how *how, u
     if (c->chosen == -2)
         return wdrctl_fail(EX_SOFTWARE, "calibrate: form auto: %s", err);
     print_choice(c);
-    adopt(r, &c->trial[c->chosen < 0 ? c->tried - 1 : c->chosen], &tab);
+    adopt(r, &c->trial[c->chosen < 0 ? wdr_form_nearest(c->trial, c->tried) : c->chosen], &tab);
     return EX_OK;
 }
 
@@ -102,10 +105,10 @@ cJSON *cal_form_choice_json(const cal_form_choice *c)
     cJSON_AddBoolToObject(j, "none_met", c->chosen < 0);
     cJSON *a = cJSON_AddArrayToObject(j, "tried");
     for (int k = 0; k < c->tried; k++)
-        cJSON_AddItemToArray(a, trial_json(&c->trial[k], k == (c->chosen < 0 ? c->tried - 1 : c->chosen)));
+        cJSON_AddItemToArray(a, trial_json(&c->trial[k], k == (c->chosen < 0 ? wdr_form_nearest(c->trial, c->tried) : c->chosen)));
     cJSON_AddStringToObject(j, "note",
                             "each form's table built from the one fit and judged against the fit's own model on the "
                             "same frames; allowed = max(target_pct, fit_ratio x the fit's own error), at every "
-                            "judged current; the smallest that meets is chosen, basis-8 when none does");
+                            "judged current; the smallest that meets is chosen, the nearest to its allowance when none does");
     return j;
 }

@@ -467,7 +467,7 @@ static const cli_option calibrate_rows[] = {
     CAL_ROW_OUT_SCALE,
     {"form", 0, CLI_CHOICE, CAL_O(form), NULL,
      "table form; auto (default): the smallest whose error, measured on this chip's frames, is within max(1 %, "
-     "1.2x the fit's own) at every judged current",
+     "1.2x the fit's own) at every judged current; none: the nearest to it",
      .choices = cal_forms, .what = "table form"},
     CAL_ROW_SAMPLE,
     CAL_ROW_SEED,

@@ -77,8 +77,8 @@ int main(int argc, char **argv)
     int nm = split(models, ml, MAX_LIST), no = split(ops, ol, MAX_LIST), ns = split(seeds, sl, MAX_LIST),
         nmm = split(mism, mml, MAX_LIST), nfl = forms ? split(forms, fl, MAX_LIST) : 0;
     if (header) {
-        printf("bench_cal_matrix: board %s%s, defects %s, temporal noise off, %d judged currents, auto from the fixed "
-               "form figures\n",
+        printf("bench_cal_matrix: board %s%s, defects %s, temporal noise off, %d judged currents, auto judged on "
+               "each chip's 12-bit frames (the nearest kept when none meets)\n",
                s.board ? s.board : "sim-qvga", s.width ? " (resized)" : "", s.plant_defects ? "planted" : "none",
                CM_N_TEST);
         cm_print_header(stdout);

@@ -218,7 +218,7 @@ static int fit(chip *c, int model, double lo, double hi, wdr_cal_result *res, ch
 
 /* --form auto (host/wdrctl/cal_form_choice.c): the spline's form chosen on this chip's 12-bit
  * frames (the converters a user's chip has), at the judging currents calibrate takes, one frame
- * each (temporal noise off); basis-8 when no form meets the target. The other models keep their
+ * each (temporal noise off); the nearest when no form meets the target. The other models keep their
  * own form. */
 static void auto_form(chip *q, const wdr_cal_result *res, int model, double lo, double hi, int *form, int *n)
 {
@@ -237,8 +237,12 @@ static void auto_form(chip *q, const wdr_cal_result *res, int model, double lo, 
         fprintf(stderr, "cal_matrix: form auto: %s (basis-8 kept)\n", err);
         return;
     }
-    if (k < 0) /* none met: the last tried, basis-8 */
-        k = nt - 1;
+    for (int t = 0; getenv("CM_TRIALS") && t < nt; t++) /* CM_TRIALS=1: every form's figures, on stderr */
+        fprintf(stderr, "cal_matrix: form auto: %d/%d %s: worst %.3g %% at %.3g A; at %.3g A %.3g %% against %.3g %% (fit %.3g %%)\n",
+                tr[t].form, tr[t].n_coeffs, tr[t].meets ? "meets" : "misses", tr[t].worst_pct, tr[t].worst_at,
+                tr[t].excess_at, tr[t].table_pct, tr[t].allowed_pct, tr[t].model_pct);
+    if (k < 0) /* none met: the nearest, as calibrate keeps it */
+        k = wdr_form_nearest(tr, nt);
     *form = tr[k].form, *n = tr[k].n_coeffs;
 }
 

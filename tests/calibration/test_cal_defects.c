@@ -114,7 +114,7 @@ static void chip_close(chip *c)
 }
 
 /* --form auto as calibrate runs it (cal_form_choice.c): on fresh frames of this chip, the
- * smallest form that meets the target goes into res->cfg; basis-8 when none does. */
+ * smallest form that meets the target goes into res->cfg; the nearest when none does. */
 static void choose_form(chip *c, wdr_cal_result *res, double lo, double hi, int frames)
 {
     char err[512];
@@ -126,7 +126,7 @@ static void choose_form(chip *c, wdr_cal_result *res, double lo, double hi, int 
     if (k == -2)
         fail_msg("form auto: %s", err);
     if (k < 0)
-        k = nt - 1;
+        k = wdr_form_nearest(tr, nt);
     res->cfg.form = tr[k].form, res->cfg.n_coeffs = tr[k].n_coeffs;
 }
 

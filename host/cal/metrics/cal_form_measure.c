@@ -154,7 +154,7 @@ static int try_form(const wdr_cal_result *res, const uint8_t *mask, const wdr_fo
     tr->bytes_px = (double)tl / ((double)res->width * res->height);
     if (rc)
         return free(tb), snprintf(err, (size_t)errlen, "form %d: its table could not be read back", tr->form), rc;
-    if (keep) /* the last form tried is the one chosen, or basis-8 when none met: no second build */
+    if (keep) /* the last form tried: the chosen one, or basis-8 when none met (keep_nearest swaps in a nearer) */
         free(keep->table), keep->table = tb, keep->len = tl;
     else
         free(tb);
@@ -173,6 +173,34 @@ static uint8_t *sample_mask(const wdr_cal_result *res)
     for (long i = 0; m && i < np; i++)
         m[i] = (res->flags && res->flags[i]) || ((uint32_t)i * 2654435761u >> 7) % (uint32_t)every != 0;
     return m;
+}
+
+int wdr_form_nearest(const wdr_form_trial *trials, int n_tried)
+{
+    int best = -1;
+    for (int k = 0; k < n_tried; k++) /* smallest first: a tie keeps the smaller; NaN is never below */
+        if (!isnan(trials[k].excess) && (best < 0 || trials[k].excess < trials[best].excess))
+            best = k;
+    return best >= 0 ? best : n_tried - 1;
+}
+
+/* None met: *table (the last form's) becomes the nearest form's, built again unless it is the last. */
+static int keep_nearest(const wdr_cal_result *res, const wdr_form_trial *trials, int n_tried, uint32_t sensor_id,
+                        int operator_id, wdr_form_table *table, char *err, int errlen)
+{
+    const wdr_form_trial *t = &trials[wdr_form_nearest(trials, n_tried)];
+    if (t == &trials[n_tried - 1])
+        return 0;
+    wdr_cal_result alt = *res;
+    uint8_t *tb;
+    size_t tl;
+    char why[400];
+    alt.cfg.form = t->form, alt.cfg.n_coeffs = t->n_coeffs;
+    if (wdr_cal_build_table(&alt, sensor_id, operator_id, &tb, &tl, why, sizeof why))
+        return snprintf(err, (size_t)errlen, "form %d: %s", t->form, why), 1;
+    free(table->table);
+    table->table = tb, table->len = tl;
+    return 0;
 }
 
 int wdr_form_choose_measured(const wdr_cal_result *res, const wdr_form_frames *f, wdr_form_target t, uint32_t sensor_id,
@@ -203,6 +231,8 @@ int wdr_form_choose_measured(const wdr_cal_result *res, const wdr_form_frames *f
     }
     free(xh);
     free(mask);
+    if (chosen == -1 && table && keep_nearest(res, trials, *n_tried, sensor_id, operator_id, table, err, errlen))
+        chosen = -2;
     if (chosen == -2 && table)
         free(table->table), table->table = NULL, table->len = 0;
     return chosen;

@@ -84,9 +84,14 @@ int wdr_form_frames_capture(const wdr_cal_source *src, const double *x, int n, i
 
 /* Try the candidate forms on res (a spline fit) smallest first, until one meets t on f (at most
  * WDR_FORM_MAX_CURRENTS currents). trials (WDR_FORM_CANDIDATES) gets every form tried, *n_tried of
- * them; table (may be NULL; zeroed by the caller) the last one's table: the chosen form's, or
- * basis-8's when none met. @return the index of the chosen trial, -1 when none meets (every candidate was tried), -2
- * on an error (err says which form and why) */
+ * them; table (may be NULL; zeroed by the caller) the chosen form's table or, when none met, the
+ * nearest one's (wdr_form_nearest). @return the index of the chosen trial, -1 when none meets
+ * (every candidate was tried), -2 on an error (err says which form and why) */
+/* When no form meets: the trial nearest its allowance (the smallest worst-over-allowed, the
+ * smaller table on a tie), which is kept. basis-8 was kept before, as "the most accurate": on
+ * sim-qvga at 2x mismatch, Drago, it is 1.34-1.82x the 12-bit floor where shifted, nearer its
+ * allowance on every seed, is 0.90-0.93x (tests/calibration/README.md). */
+int wdr_form_nearest(const wdr_form_trial *trials, int n_tried);
 int wdr_form_choose_measured(const wdr_cal_result *res, const wdr_form_frames *f, wdr_form_target t, uint32_t sensor_id,
                              int operator_id, wdr_form_trial *trials, int *n_tried, wdr_form_table *table, char *err,
                              int errlen);
