@@ -160,7 +160,8 @@ void wdr_fw_expo_row(wdr_fw *fw, const uint16_t *codes, uint16_t width)
 typedef struct expo_tally {
     int64_t sum_q8;
     uint32_t seen, below, above, near_lo, near_hi;
-    int32_t top_q8; /* the brightest visible value */
+    int32_t top_q8;        /* the brightest visible value */
+    int32_t lo_q8, hi_q8;  /* the limits' values, dark current out */
 } expo_tally;
 
 /* ln(I / I_key) * 256 of a code in 1/256 (the table interpolated linearly, flat past its last bin). */
@@ -172,6 +173,54 @@ static int32_t table_q8_fine(const wdr_lut_exposure *ex, int32_t code_q8)
         return ex->ln_q8[ex->bins - 1u];
     int32_t lo = ex->ln_q8[bin], hi = ex->ln_q8[bin + 1u];
     return lo + (int32_t)(((int64_t)(hi - lo) * (int32_t)(c & ((1u << sh) - 1u))) >> sh);
+}
+
+/* log2(1 + i/16) for i = 0..16, Q12: the fraction of log2 between table points is interpolated. */
+static const uint16_t log2_q12[17] = {0,    358,  696,  1016, 1319, 1607, 1882, 2145, 2396,
+                                      2637, 2869, 3092, 3307, 3514, 3715, 3908, 4096};
+
+/* e^(z / 256) in Q16 for z <= 0 (1 for z > 0); 0 below 2^-17. */
+static uint32_t exp_neg_q16(int32_t z_q8)
+{
+    if (z_q8 >= 0)
+        return 65536u;
+    uint32_t w = (uint32_t)(((uint64_t)(uint32_t)(-z_q8) * LOG2E_Q8) >> 8); /* -log2 of the result, 1/256 */
+    if (w >= 17u * 256u)
+        return 0u;
+    uint32_t n = w >> 8, f = 256u - (w & 255u); /* 2^(-w/256) = 2^(f/256) / 2 / 2^n, f in 1..256 */
+    uint32_t i = f >> 4, r = f & 15u;
+    uint32_t frac = i >= 16u ? exp2_q15[16] : exp2_q15[i] + (((uint32_t)(exp2_q15[i + 1] - exp2_q15[i]) * r) >> 4);
+    return frac >> n; /* 2^(f/256) in Q15 is 2^(f/256) / 2 in Q16 */
+}
+
+/* ln(v / 65536) * 256 for v > 0. */
+static int32_t ln_q8_of_q16(uint32_t v)
+{
+    int p = 31;
+    while (!(v >> p))
+        p--;
+    uint32_t r = p >= 15 ? v >> (p - 15) : v << (15 - p); /* Q15 in [1, 2) */
+    uint32_t t = r - 32768u, i = t >> 11, rem = t & 2047u;
+    int32_t l2 = (int32_t)log2_q12[i] + (int32_t)(((uint32_t)(log2_q12[i + 1] - log2_q12[i]) * rem) >> 11);
+    int64_t total_q12 = (int64_t)(p - 16) * 4096 + l2;
+    return (int32_t)(total_q12 * 45426 / (1 << 20)); /* ln 2 in Q16; Q12 to Q8 */
+}
+
+#define DARK_MAX_DROP_Q8 1420 /* ln(1/256) * -256: a reading at least 1/256 of it not dark current */
+
+/* x, ln(J / key) * 256 of a reading, less the dark current the longer hold added: a tick m times
+ * its own adds (m - 1) I_dark to J (the calibration took out one I_dark at the own tick). False
+ * when dark current explains all but 1/256 of the reading: it then says only "at most". */
+static bool dark_corrected(const wdr_fw *fw, int32_t excess_q8, int32_t *x)
+{
+    if (!(fw->expo.flags & WDR_LUT_EXPO_DARK) || excess_q8 == 0)
+        return true;
+    int64_t y = (int64_t)exp_neg_q16(fw->expo.dark_ln_q8 - *x) * excess_q8 / 256; /* (m - 1) I_dark / J, Q16 */
+    int64_t v = 65536 - y;
+    if (v < 256)
+        return false;
+    *x += ln_q8_of_q16((uint32_t)v);
+    return true;
 }
 
 /* (tick in force / own tick - 1) * 256: how much longer than calibrated every pixel held its value. */
@@ -187,7 +236,12 @@ static void tally(const wdr_fw *fw, expo_tally *t)
     const uint32_t hs = fw->expo_hist_shift, half_q8 = hs ? 128u << hs : 0u;
     const int32_t excess_q8 = hold_excess_q8(fw);
     const int32_t lo_q8 = (int32_t)fw->expo_lo_index << (8u + hs), hi_q8 = (int32_t)fw->expo_hi_index << (8u + hs);
-    *t = (expo_tally){.top_q8 = fw->expo_hi_q8};
+    *t = (expo_tally){.top_q8 = fw->expo_hi_q8, .lo_q8 = fw->expo_lo_q8, .hi_q8 = fw->expo_hi_q8};
+    if (!dark_corrected(fw, excess_q8, &t->lo_q8))
+        t->lo_q8 = fw->expo_lo_q8 - DARK_MAX_DROP_Q8; /* the floor is dark current at this tick */
+    if (!dark_corrected(fw, excess_q8, &t->hi_q8))
+        t->hi_q8 = fw->expo_hi_q8 - DARK_MAX_DROP_Q8;
+    t->top_q8 = t->hi_q8;
     for (uint32_t i = 0; i < WDR_FW_EXPO_HIST; i++) {
         uint32_t n = fw->expo_hist[i];
         if (n == 0)
@@ -198,20 +252,27 @@ static void tally(const wdr_fw *fw, expo_tally *t)
                                                                                            : ex->bins - 1u] *
                               excess_q8) >>
                              8);
-        if (code_q8 >= lo_q8) {
+        /* censored by the nearest whole code: a droop shift of a fraction of a code must not move a
+         * whole histogram entry across a limit (with one entry per code, every entry sits exactly on one) */
+        int32_t nearest_q8 = (int32_t)(((uint32_t)(code_q8 > 0 ? code_q8 : 0) + 128u) & ~255u);
+        if (nearest_q8 >= lo_q8) {
             t->below += n;
             continue;
         }
-        if (code_q8 < hi_q8) {
+        if (nearest_q8 < hi_q8) {
             t->above += n;
             continue;
         }
         int32_t x = table_q8_fine(ex, code_q8);
+        if (!dark_corrected(fw, excess_q8, &x)) {
+            t->below += n;
+            continue;
+        }
         t->top_q8 = t->seen ? t->top_q8 : x; /* codes fall as light rises: the first seen is the top */
         t->sum_q8 += (int64_t)n * x;
         t->seen += n;
-        t->near_lo += x <= fw->expo_lo_q8 + EXPO_BAND_Q8 ? n : 0u;
-        t->near_hi += x >= fw->expo_hi_q8 - EXPO_BAND_Q8 ? n : 0u;
+        t->near_lo += x <= t->lo_q8 + EXPO_BAND_Q8 ? n : 0u;
+        t->near_hi += x >= t->hi_q8 - EXPO_BAND_Q8 ? n : 0u;
     }
 }
 
@@ -234,12 +295,11 @@ static int32_t frame_log_average(const wdr_fw *fw)
     if (all == 0)
         return 0;
     int32_t hi_span = tail_span(t.above, t.near_hi, WDR_FW_EXPO_TAIL_MAX_Q8);
-    int32_t top = t.above ? fw->expo_hi_q8 + hi_span : t.top_q8;
-    int32_t guard = fw->expo_lo_q8 - (top - EXPO_GUARD_Q8); /* room above the tone map's guard */
+    int32_t top = t.above ? t.hi_q8 + hi_span : t.top_q8;
+    int32_t guard = t.lo_q8 - (top - EXPO_GUARD_Q8); /* room above the tone map's guard */
     int32_t lo_cap = guard < WDR_FW_EXPO_TAIL_MAX_Q8 ? (guard > 0 ? guard : 0) : WDR_FW_EXPO_TAIL_MAX_Q8;
     int32_t lo_span = tail_span(t.below, t.near_lo, lo_cap);
-    int64_t sum = t.sum_q8 + (int64_t)t.below * (fw->expo_lo_q8 - lo_span / 2) +
-                  (int64_t)t.above * (fw->expo_hi_q8 + hi_span / 2);
+    int64_t sum = t.sum_q8 + (int64_t)t.below * (t.lo_q8 - lo_span / 2) + (int64_t)t.above * (t.hi_q8 + hi_span / 2);
     return (int32_t)(sum / (int64_t)all);
 }
 

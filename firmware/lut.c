@@ -133,9 +133,10 @@ int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out)
     uint32_t bins = wdr_get_u16(p + 4);
     if (wdr_get_u32(p) != WDR_LUT_EXPO_MAGIC)
         return WDR_E_CORRUPT;
-    if (!expo_bins_valid(bins) || p[7] > WDR_LUT_EXPO_DROOP || len != WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, p[7]) ||
+    if (!expo_bins_valid(bins) || (p[7] & ~WDR_LUT_EXPO_FLAGS) || len != WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, p[7]) ||
         p[6] > 10u)
         return WDR_E_INVAL;
+    const uint8_t *dark = p + 8 + 2 * bins * (1u + (p[7] & WDR_LUT_EXPO_DROOP));
     if (wdr_get_u32(p + len - 4u) != wdr_crc32(0, p, len - 4u))
         return WDR_E_CORRUPT;
     out->code_shift = p[6];
@@ -143,16 +144,20 @@ int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out)
     out->flags = p[7];
     for (uint32_t b = 0; b < bins; b++) {
         out->ln_q8[b] = (int16_t)wdr_get_u16(p + 8 + 2 * b);
-        out->droop_q8[b] = out->flags ? (int16_t)wdr_get_u16(p + 8 + 2 * (bins + b)) : 0;
+        out->droop_q8[b] = (out->flags & WDR_LUT_EXPO_DROOP) ? (int16_t)wdr_get_u16(p + 8 + 2 * (bins + b)) : 0;
         if (out->ln_q8[b] < -WDR_LUT_EXPO_MAX_LN_Q8 || out->ln_q8[b] > WDR_LUT_EXPO_MAX_LN_Q8)
             return WDR_E_INVAL; /* the gain steps by half of it: bounded steps, bounded arithmetic */
     }
+    out->dark_ln_q8 = (out->flags & WDR_LUT_EXPO_DARK) ? (int16_t)wdr_get_u16(dark) : 0;
+    if ((out->flags & WDR_LUT_EXPO_DARK) &&
+        (wdr_get_u16(dark + 2) || out->dark_ln_q8 < -WDR_LUT_EXPO_MAX_LN_Q8 || out->dark_ln_q8 > WDR_LUT_EXPO_MAX_LN_Q8))
+        return WDR_E_INVAL;
     return WDR_OK;
 }
 
 void wdr_lut_exposure_encode(const wdr_lut_exposure *in, uint8_t *out)
 {
-    uint8_t flags = in->flags & WDR_LUT_EXPO_DROOP;
+    uint8_t flags = in->flags & WDR_LUT_EXPO_FLAGS;
     uint32_t size = WDR_LUT_EXPO_BLOCK_SIZE_FOR(in->bins, flags);
     wdr_put_u32(out, WDR_LUT_EXPO_MAGIC);
     wdr_put_u16(out + 4, in->bins);
@@ -160,8 +165,13 @@ void wdr_lut_exposure_encode(const wdr_lut_exposure *in, uint8_t *out)
     out[7] = flags;
     for (uint32_t b = 0; b < in->bins; b++) {
         wdr_put_u16(out + 8 + 2 * b, (uint16_t)in->ln_q8[b]);
-        if (flags)
+        if (flags & WDR_LUT_EXPO_DROOP)
             wdr_put_u16(out + 8 + 2 * (in->bins + b), (uint16_t)in->droop_q8[b]);
+    }
+    if (flags & WDR_LUT_EXPO_DARK) {
+        uint8_t *dark = out + 8 + 2u * in->bins * (1u + (flags & WDR_LUT_EXPO_DROOP));
+        wdr_put_u16(dark, (uint16_t)in->dark_ln_q8);
+        wdr_put_u16(dark + 2, 0);
     }
     wdr_put_u32(out + size - 4u, wdr_crc32(0, out, size - 4u));
 }

@@ -57,7 +57,7 @@
 #define WDR_FW_RESET_NS 2000u        /* reset pulse: settles N1 through M1 */
 #endif
 
-/* A LUT with a 1024-bin exposure block (2060 bytes) fits up to 7934 entries (a 12-bit ramp has at
+/* A LUT with a 1024-bin exposure block (4112 bytes) fits up to 7678 entries (a 12-bit ramp has at
  * most 4096): the slot layout, sized from this, stays. */
 #define WDR_FW_LUT_MAX_BYTES (WDR_LUT_HEADER_SIZE + WDR_FW_LUT_MAX_ENTRIES * WDR_LUT_ENTRY_SIZE)
 #define WDR_FW_CAL_ROW_MAX_BYTES (WDR_FW_MAX_CAL_COEFFS * 4u * WDR_FW_MAX_WIDTH + ((WDR_FW_MAX_WIDTH + 3u) & ~3u))

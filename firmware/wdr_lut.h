@@ -88,7 +88,10 @@ void wdr_lut_encode(wdr_lut_header *h, const uint32_t *t_ticks, const uint16_t *
 #define WDR_LUT_EXPO_BINS 64u          /* the fewest bins (the first 1.1 blocks) */
 #define WDR_LUT_EXPO_MAX_BINS 1024u    /* the most: a power of two from 64 to this */
 #define WDR_LUT_EXPO_DROOP 1u /* flags bit 0: a droop array follows ln_q8 */
-#define WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, flags) (8u + 2u * (uint32_t)(bins) * (1u + ((flags)&1u)) + 4u)
+#define WDR_LUT_EXPO_DARK 2u  /* flags bit 1: the dark current follows the arrays (i16 ln q8, u16 0) */
+#define WDR_LUT_EXPO_FLAGS (WDR_LUT_EXPO_DROOP | WDR_LUT_EXPO_DARK)
+#define WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, flags)                                                                      \
+    (8u + 2u * (uint32_t)(bins) * (1u + ((flags)&1u)) + 4u * (((flags) >> 1) & 1u) + 4u)
 #define WDR_LUT_EXPO_BLOCK_SIZE(bins) WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, 0u)
 #define WDR_LUT_EXPO_SIZE WDR_LUT_EXPO_BLOCK_SIZE(WDR_LUT_EXPO_BINS) /* a 64-bin block */
 #define WDR_LUT_EXPO_MAX_LN_Q8 8192 /* |ln_q8| at most 32 ln (e^32 = 8e13, past any sensor's range) */
@@ -101,12 +104,16 @@ typedef struct wdr_lut_exposure {
     /* With WDR_LUT_EXPO_DROOP: codes (1/256) the hold droop lowers bin b's code by per unit of
      * (tick / own tick - 1): a tick m times the own holds every crossed pixel m times longer */
     int16_t droop_q8[WDR_LUT_EXPO_MAX_BINS];
+    /* With WDR_LUT_EXPO_DARK: ln(I_dark / I_key) * 256, the mean dark current. The calibration
+     * at the own tick takes it out, but a tick m times longer adds (m - 1) I_dark more to each
+     * pixel's reading (the scene's current does not scale with the tick; its charge does). */
+    int16_t dark_ln_q8;
 } wdr_lut_exposure;
 
 /* Check and read the exposure block at buf (the bytes after a LUT's entries, exactly len of them).
  * @retval WDR_OK  @retval WDR_E_TRUNCATED len < 8  @retval WDR_E_CORRUPT magic or CRC
- * @retval WDR_E_INVAL bins not a power of two in 64..WDR_LUT_EXPO_MAX_BINS, flags other than 0 or
- *                     WDR_LUT_EXPO_DROOP, len other than WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, flags),
+ * @retval WDR_E_INVAL bins not a power of two in 64..WDR_LUT_EXPO_MAX_BINS, flags outside
+ *                     WDR_LUT_EXPO_FLAGS, the dark field's reserved half not 0, len other than WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, flags),
  *                     code_shift above 10, or an ln_q8 outside +-WDR_LUT_EXPO_MAX_LN_Q8 */
 int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out);
 

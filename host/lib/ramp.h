@@ -68,6 +68,13 @@ double wdr_ramp_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operato
  * built for (L_avg / lum_per_A). */
 void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out);
 
+/* The droop array of the exposure block at the end of the LUT in bytes, computed again for the
+ * LUT's own integration time (in place, CRC too): calibrate's margin lengthens the integration
+ * after the block was built, and every pixel then holds longer than the array says (at a tick
+ * 19.5x its own, 0.3 codes more on Reinhard's sim-qvga, where a code near the ceiling is 0.1-0.5 ln).
+ * @retval WDR_OK (also when there is no block, or no droop array), the parse errors, WDR_E_NOMEM */
+int wdr_ramp_lut_refresh_droop(uint8_t *bytes, size_t len, const wdr_board *b);
+
 /* Append that table to the LUT in *bytes (realloc'd; *len grows by WDR_LUT_EXPO_BLOCK_SIZE(bins), 1024 bins).
  * @retval WDR_OK, the wdr_lut_parse errors, WDR_E_NOMEM */
 int wdr_ramp_lut_append_exposure(uint8_t **bytes, size_t *len, const wdr_board *b, double key_amp);

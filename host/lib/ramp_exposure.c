@@ -42,6 +42,48 @@ static double droop_codes(const wdr_ideal_pixel *px, const wdr_board *b, const w
     return scale * (wdr_pixel_sf_out(&px->dev, g) - wdr_pixel_sf_out(&px->dev, g - dv));
 }
 
+/* Each bin's droop per unit of (tick / own tick - 1), from the LUT's own integration time: the
+ * current of the bin's first code (the part of the ramp before the floor fixes it). */
+static void fill_droop(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, wdr_lut_exposure *ex)
+{
+    for (uint32_t k = 0; k < ex->bins; k++) {
+        double ln_i = ln_current_for_code(px, b, lut, (double)(k << ex->code_shift));
+        ex->droop_q8[k] = (int16_t)lround(fmin(32767, 256 * droop_codes(px, b, lut, ln_i)));
+    }
+}
+
+/* The same from a grid of currents, inverted by interpolation: calibrate refreshes the array at
+ * every margin it tries, and 48 bisection steps per bin took 5 s a time on sim-qvga's Reinhard
+ * ramp (the droop varies slowly with the current: the grid's 0.007 ln moves it by under 1/256). */
+#define DROOP_GRID 2048
+static int fill_droop_from_grid(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut,
+                                wdr_lut_exposure *ex)
+{
+    double *ln_i = malloc(sizeof *ln_i * 2 * DROOP_GRID), *code = ln_i + DROOP_GRID;
+    if (!ln_i)
+        return WDR_E_NOMEM;
+    double lo = log(b->i_min_a), hi = log(b->i_max_a);
+    for (int k = 0; k < DROOP_GRID; k++) {
+        ln_i[k] = lo + (hi - lo) * k / (DROOP_GRID - 1);
+        code[k] = ideal_code(px, b, lut, exp(ln_i[k])); /* falls as light rises */
+    }
+    for (uint32_t k = 0; k < ex->bins; k++) {
+        double y = (double)(k << ex->code_shift), x = y >= code[0] ? lo : hi;
+        if (y < code[0] && y > code[DROOP_GRID - 1]) {
+            int a = 0, z = DROOP_GRID - 1; /* code[a] > y >= code[z] */
+            while (z - a > 1) {
+                int mid = (a + z) / 2;
+                *(code[mid] > y ? &a : &z) = mid;
+            }
+            double span = code[a] - code[z];
+            x = ln_i[a] + (span > 0 ? (code[a] - y) / span : 0) * (ln_i[z] - ln_i[a]);
+        }
+        ex->droop_q8[k] = (int16_t)lround(fmin(32767, 256 * droop_codes(px, b, lut, x)));
+    }
+    free(ln_i);
+    return WDR_OK;
+}
+
 void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out)
 {
     wdr_ideal_pixel px;
@@ -52,13 +94,42 @@ void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, do
     out->bins = (uint16_t)(1u << bits);
     out->code_shift = (uint8_t)(b->adc_bits > (int)bits ? b->adc_bits - (int)bits : 0);
     out->flags = WDR_LUT_EXPO_DROOP;
+    if (b->dark_current_a > 0) { /* a longer tick adds the dark current (fw_expo.c) */
+        /* the pixels' mean: the board's figure is the median of a lognormal spread */
+        double mean_a = b->dark_current_a * exp(0.5 * b->dark_sigma_ln * b->dark_sigma_ln);
+        double q = 256 * log(mean_a / key_amp);
+        out->flags |= WDR_LUT_EXPO_DARK;
+        out->dark_ln_q8 = (int16_t)lround(fmax(-WDR_LUT_EXPO_MAX_LN_Q8, fmin(WDR_LUT_EXPO_MAX_LN_Q8, q)));
+    }
     for (uint32_t k = 0; k < out->bins; k++) {
         double first = (double)(k << out->code_shift); /* the firmware interpolates between bins */
         double ln_rel = ln_current_for_code(&px, b, lut, first) - log(key_amp);
         double q = fmax(-WDR_LUT_EXPO_MAX_LN_Q8, fmin(WDR_LUT_EXPO_MAX_LN_Q8, ln_rel * 256));
         out->ln_q8[k] = (int16_t)lround(q);
-        out->droop_q8[k] = (int16_t)lround(fmin(32767, 256 * droop_codes(&px, b, lut, ln_rel + log(key_amp))));
     }
+    fill_droop(&px, b, lut, out);
+}
+
+int wdr_ramp_lut_refresh_droop(uint8_t *bytes, size_t len, const wdr_board *b)
+{
+    wdr_lut_view lut;
+    int rc = wdr_lut_parse(bytes, len, &lut);
+    size_t end = rc ? 0 : wdr_lut_size(lut.h.entry_count);
+    if (rc || len <= end)
+        return rc; /* no exposure block: nothing to refresh */
+    wdr_lut_exposure *ex = malloc(sizeof *ex);
+    if (!ex)
+        return WDR_E_NOMEM;
+    rc = wdr_lut_exposure_parse(bytes + end, len - end, ex);
+    if (!rc && (ex->flags & WDR_LUT_EXPO_DROOP)) {
+        wdr_ideal_pixel px;
+        wdr_ideal_pixel_init(b, &px);
+        rc = fill_droop_from_grid(&px, b, &lut, ex);
+        if (!rc)
+            wdr_lut_exposure_encode(ex, bytes + end);
+    }
+    free(ex);
+    return rc;
 }
 
 int wdr_ramp_lut_append_exposure(uint8_t **bytes, size_t *len, const wdr_board *b, double key_amp)

@@ -32,14 +32,14 @@ static int prompt_level(double amps)
 
 /* The LUT file the board will image with, stored with the calibration margin this chip needs
  * (sized from the board's own frames: cal_size_margin). */
-static int upload_lut_with_margin(device_src *d, const char *path, const wdr_cal_source *src,
+static int upload_lut_with_margin(device_src *d, const char *path, const wdr_board *b, const wdr_cal_source *src,
                                   const wdr_cal_design *design, wdr_cal_margin *m)
 {
     uint8_t *buf;
     size_t len;
     if (wdr_read_file(path, &buf, &len) != WDR_OK)
         return wdrctl_fail(EX_NOINPUT, "%s: cannot read LUT", path);
-    wdr_cal_board_lut l = {&d->board, buf, len};
+    wdr_cal_board_lut l = {&d->board, buf, len, b};
     fprintf(stderr, "wdrctl: %s: sizing its calibration margin on the board's frames\n", path);
     int rc = cal_size_margin(src, design, wdr_cal_board_set_margin, &l, m);
     free(buf);
@@ -530,7 +530,7 @@ int cmd_calibrate(int argc, char **argv)
         wdr_cal_design design;
         if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK &&
             (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK &&
-            (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &src, &design, &r.margin)) == EX_OK) &&
+            (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &b, &src, &design, &r.margin)) == EX_OK) &&
             (rc = require_lut(&d, o.device)) == EX_OK) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits);
             cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */

@@ -34,19 +34,18 @@
 #define SETTLED_FROM 16 /* the settled key: the mean over frames 16..23 */
 #define SETTLE_MAX 12   /* frames within which the key must be within TOLERANCE for good */
 #define TOLERANCE 0.02
-/* Not yet 2 %: the dark scene's ramp runs 17-20x longer, and the dark current (3e-16 A, not
- * subtracted by the firmware) is then 3 % of its log-average; measured +5.45-5.9 % (+2.7-3.1 %
- * against the truth with the dark current). Held at 7 % until the firmware subtracts it.
- * Measured by effect (seed 2, WDR_EXPO_EFFECTS, 2026-12-03): dark current off +3.41 %, also
- * shot, kTC and read noise off +3.41 %, dark and mismatch off +2.20 %, those and uncalibrated
- * +3.01 %, dark off and both converters ideal +3.81 %. Per pixel (the last frame through the
- * firmware's arithmetic, by hand), what remains comes from both ends of the response: the sky
- * at the ceiling reads +0.1-0.2 ln high (codes 468-499 before the droop's 9 codes are added
- * back, where a code is 0.1-0.25 ln) and the darkest room +0.03-0.15 ln. Tried and not kept:
- * the exposure table's nodes fitted by least squares to each code's mean ln I (the chords of a
- * bending response lie above it): the dark scene did not move, the HDR wedge went from +1.87 to
- * +4.18 %. */
-#define DARK_TOLERANCE 0.07
+/* Not yet 2 % on the dark scene: its ramp runs 19.5x longer than its own. Measured 2026-12-03,
+ * sim-qvga, seeds 1 / 2 / 3: +2.20 / +2.20 / +3.01 %, with the firmware taking out the dark
+ * current the longer hold adds (the LUT's exposure block carries the board's mean dark current:
+ * +5.86 / +5.45 / +6.28 % without) and the droop array computed again for the integration the
+ * calibration margin adds (wdrctl calibrate --lut). What remains, by effect on seed 2: +1.81 %
+ * with mismatch off, the same with temporal noise off; per pixel (the last frame through the
+ * firmware's arithmetic, by hand), both ends of the response read high, where a code is 0.1-0.5
+ * ln. Held at 3.5 % (seen failing without the dark current taken out: +4.63 %). Tried and not
+ * kept: the exposure table's nodes fitted by least squares to each code's mean ln I (the chords
+ * of a bending response lie above it; hdr went from +1.87 to +4.18 %), and the damped step
+ * rounded instead of truncated (a limit cycle: bright +0.33 to +0.72 %). */
+#define DARK_TOLERANCE 0.035
 
 typedef struct scene_def {
     const char *name, *illumination;
@@ -254,7 +253,7 @@ int main(int argc, char **argv)
             double tol = scenes[i].tolerance;
             if (tol > 0 && (fabs(o->error) >= tol || o->worst_late >= tol || o->settle > SETTLE_MAX)) {
                 printf("FAIL: %s scene, seed %llu: settled %+.2f %% from the log-average (worst late frame %.2f %%), "
-                       "within %.0f %% from frame %d (at most %.0f %% from frame %d allowed)\n",
+                       "within %.1f %% from frame %d (at most %.1f %% from frame %d allowed)\n",
                        scenes[i].name, seed, 100 * o->error, 100 * o->worst_late, 100 * tol, o->settle, 100 * tol,
                        SETTLE_MAX);
                 failed = 1;

@@ -1,6 +1,7 @@
 /* A board as the calibration frame source (see cal_board_source.h). */
 #include "cal_board_source.h"
 #include "cal_margin.h"
+#include "ramp.h"
 #include "wdr_cal.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
@@ -57,14 +58,20 @@ int wdr_cal_board_close(wdr_cal_board *d)
     return rc;
 }
 
-int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double margin_v, double *added_s,
-                            double *done_v, char *err, int errlen)
+int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, const wdr_board *physics,
+                            double margin_v, double *added_s, double *done_v, char *err, int errlen)
 {
     uint8_t *ext = NULL;
     size_t ext_len;
     int rc = wdr_cal_lut_with_margin(lut, len, margin_v, &ext, &ext_len, added_s, done_v, err, errlen);
     if (rc)
         return rc;
+    /* the margin lengthens the integration: every crossed pixel holds that much longer */
+    if (physics && (rc = wdr_ramp_lut_refresh_droop(ext, ext_len, physics)) != WDR_OK) {
+        snprintf(err, (size_t)errlen, "the LUT's exposure block with the margin: %s", wdr_strerror(rc));
+        free(ext);
+        return rc;
+    }
     wdr_commit_reply reply;
     rc = wdr_client_upload(d->client, WDR_KIND_LUT, ext, ext_len, NULL, NULL, &reply);
     free(ext);
@@ -88,7 +95,7 @@ int wdr_cal_board_store_table(wdr_cal_board *d, const uint8_t *table, size_t len
 int wdr_cal_board_set_margin(void *ctx, double margin_v, double *done_v, double *added_s, char *err, int errlen)
 {
     wdr_cal_board_lut *l = ctx;
-    int rc = wdr_cal_board_store_lut(l->board, l->lut, l->len, margin_v, added_s, done_v, err, errlen);
+    int rc = wdr_cal_board_store_lut(l->board, l->lut, l->len, l->physics, margin_v, added_s, done_v, err, errlen);
     if (rc && rc != WDR_E_INVAL && rc != WDR_E_NOMEM)
         snprintf(err, (size_t)errlen, "storing the LUT with a %.1f mV margin: %s", margin_v * 1e3,
                  l->board->client->err[0] ? l->board->client->err : wdr_strerror(rc));

@@ -30,10 +30,11 @@ int wdr_cal_board_close(wdr_cal_board *d);
 
 /* Store the LUT the board will image with, continued past its last code by margin_v of
  * calibration margin (wdr_cal_lut_with_margin), so that pixels with high thresholds cross at the
- * dimmest currents. *added_s and *done_v report the extension.
+ * dimmest currents. *added_s and *done_v report the extension. With physics (the board file),
+ * an exposure block's droop array is computed again for the longer integration.
  * @retval WDR_OK; WDR_E_INVAL or WDR_E_NOMEM from the extension (err says why); the client's error */
-int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, double margin_v, double *added_s,
-                            double *done_v, char *err, int errlen);
+int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, const wdr_board *physics,
+                            double margin_v, double *added_s, double *done_v, char *err, int errlen);
 
 /* The board's margin setter for wdr_cal_margin_size (cal_margin.h): ctx is a wdr_cal_board_lut,
  * the LUT file's bytes, stored again with each margin tried. */
@@ -41,6 +42,7 @@ typedef struct wdr_cal_board_lut {
     wdr_cal_board *board;
     const uint8_t *lut;
     size_t len;
+    const wdr_board *physics; /* the board file: the exposure block's droop is refitted to the margin (NULL: kept) */
 } wdr_cal_board_lut;
 int wdr_cal_board_set_margin(void *ctx, double margin_v, double *done_v, double *added_s, char *err, int errlen);
 
