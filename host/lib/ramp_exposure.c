@@ -59,9 +59,10 @@ static void fill_droop(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_
 static int fill_droop_from_grid(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut,
                                 wdr_lut_exposure *ex)
 {
-    double *ln_i = malloc(sizeof *ln_i * 2 * DROOP_GRID), *code = ln_i + DROOP_GRID;
+    double *ln_i = malloc(sizeof *ln_i * 2 * DROOP_GRID);
     if (!ln_i)
         return WDR_E_NOMEM;
+    double *code = ln_i + DROOP_GRID;
     double lo = log(b->i_min_a), hi = log(b->i_max_a);
     for (int k = 0; k < DROOP_GRID; k++) {
         ln_i[k] = lo + (hi - lo) * k / (DROOP_GRID - 1);
