@@ -51,19 +51,17 @@ static double droop_codes(const wdr_ideal_pixel *px, const wdr_board *b, const w
     return scale * (wdr_pixel_sf_out(&px->dev, g) - wdr_pixel_sf_out(&px->dev, g - dv));
 }
 
-/* Each bin's droop per unit of (tick / own tick - 1), from the LUT's own integration time: the
- * current of the bin's first code (the part of the ramp before the floor fixes it). */
-static void fill_droop(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, wdr_lut_exposure *ex)
+/* A bin's droop per unit of (tick / own tick - 1), in 1/256 code, at the current ln_i of its
+ * first code, from the LUT's own integration time. */
+static int16_t droop_q8_at(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double ln_i)
 {
-    for (uint32_t k = 0; k < ex->bins; k++) {
-        double ln_i = ln_current_for_code(px, b, lut, (double)(k << ex->code_shift));
-        ex->droop_q8[k] = (int16_t)lround(fmin(32767, 256 * droop_codes(px, b, lut, ln_i)));
-    }
+    return (int16_t)lround(fmin(32767, 256 * droop_codes(px, b, lut, ln_i)));
 }
 
-/* The same from a grid of currents, inverted by interpolation: calibrate refreshes the array at
- * every margin it tries, and 48 bisection steps per bin took 5 s a time on sim-qvga's Reinhard
- * ramp (the droop varies slowly with the current: the grid's 0.007 ln moves it by under 1/256). */
+/* Every bin's droop from a grid of currents, inverted by interpolation: calibrate refreshes the
+ * array at every margin it tries, and the build's 48 bisection steps per bin took 5 s a time on
+ * sim-qvga's Reinhard ramp (the droop varies slowly with the current: the grid's 0.007 ln moves
+ * it by under 1/256). */
 #define DROOP_GRID 2048
 static int fill_droop_from_grid(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut,
                                 wdr_lut_exposure *ex)
@@ -88,7 +86,7 @@ static int fill_droop_from_grid(const wdr_ideal_pixel *px, const wdr_board *b, c
             double span = code[a] - code[z];
             x = ln_i[a] + (span > 0 ? (code[a] - y) / span : 0) * (ln_i[z] - ln_i[a]);
         }
-        ex->droop_q8[k] = (int16_t)lround(fmin(32767, 256 * droop_codes(px, b, lut, x)));
+        ex->droop_q8[k] = droop_q8_at(px, b, lut, x);
     }
     free(ln_i);
     return WDR_OK;
@@ -116,8 +114,8 @@ void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, do
         double ln_rel = ln_current_for_code(&px, b, lut, first) - log(key_amp);
         double q = fmax(-WDR_LUT_EXPO_MAX_LN_Q8, fmin(WDR_LUT_EXPO_MAX_LN_Q8, ln_rel * 256));
         out->ln_q8[k] = (int16_t)lround(q);
+        out->droop_q8[k] = droop_q8_at(&px, b, lut, ln_rel + log(key_amp));
     }
-    fill_droop(&px, b, lut, out);
 }
 
 int wdr_ramp_lut_refresh_droop(uint8_t *bytes, size_t len, const wdr_board *b)
