@@ -11,7 +11,8 @@
  * of the scene just inside the limit, continued past it (uniform in ln I, as over a log gradient):
  * a fraction p beyond the limit against q within BAND of it spans BAND p / q, so its mean lies half
  * that beyond. The span is capped at WDR_FW_EXPO_TAIL_MAX_Q8, and below the top by the tone map's
- * guard (1e-9 of the maximum). Then the gain moves by half of the error (damped), the new tick
+ * guard (1e-9 of the maximum). Then the gain moves by half of the error (damped; wdr_fw_expo_step
+ * says how far off the key is far, and how a last 1/256 is taken), the new tick
  * must keep every DAC step at least WDR_FW_DAC_MIN_UPDATE_PS long and the integration at most
  * WDR_FW_MAX_INTEGRATION_NS; a step that would break either is halved until it fits. */
 #include "wdr_fw.h"
@@ -19,7 +20,11 @@
 
 #define LOG2E_Q8 369       /* 1/ln 2 in 1/256 */
 #define EXPO_NOISE_CODES 4 /* codes a pixel at a limit may read past it (noise): censored too */
-#define EXPO_BAND_Q8 256   /* the density beyond a limit is the density within 1 ln of it */
+#define EXPO_BAND_Q8 256   /* the density beyond a limit is the density over 1 ln inside it, */
+#define EXPO_FAST_Q8 128   /* a key more than 0.5 ln off moves to 0.25 ln off at once */
+#define EXPO_GAP_Q8 128    /* from 0.5 ln in: noise and mismatch blur which pixels a limit censors
+                            * over about that much, and a band that starts at the limit counted
+                            * 5 % too few (the HDR wedge's tail 0.27 ln too long: key -1.9 %) */
 #define EXPO_GUARD_Q8 5305 /* ln(1e9) * 256: the tone map counts nothing below 1e-9 of the maximum */
 #ifndef WDR_FW_EXPO_TAIL_MAX_Q8
 #define WDR_FW_EXPO_TAIL_MAX_Q8 2048 /* a censored tail spans at most 8 ln (3.5 decades) */
@@ -111,6 +116,7 @@ void wdr_fw_expo_reset(wdr_fw *fw)
 {
     fw->expo_gain_q8 = 0;
     fw->expo_last_q8 = 0;
+    fw->expo_last_nudge = 0;
     fw->expo_tick_ps = fw->lut_slot >= 0 ? fw->lut.h.tick_ps : 0;
     fw->expo_min_step_ticks = fw->lut_slot >= 0 ? min_step_ticks(&fw->lut) : 0;
     if (fw->expo_has_table)
@@ -130,6 +136,7 @@ int wdr_fw_set_exposure(wdr_fw *fw, uint8_t mode)
     fw->expo_auto = mode == 1;
     if (!fw->expo_auto) {
         fw->expo_gain_q8 = 0;
+        fw->expo_last_nudge = 0;
         fw->expo_tick_ps = fw->lut.h.tick_ps;
     }
     return WDR_OK;
@@ -271,13 +278,13 @@ static void tally(const wdr_fw *fw, expo_tally *t)
         t->top_q8 = t->seen ? t->top_q8 : x; /* codes fall as light rises: the first seen is the top */
         t->sum_q8 += (int64_t)n * x;
         t->seen += n;
-        t->near_lo += x <= t->lo_q8 + EXPO_BAND_Q8 ? n : 0u;
-        t->near_hi += x >= t->hi_q8 - EXPO_BAND_Q8 ? n : 0u;
+        t->near_lo += x > t->lo_q8 + EXPO_GAP_Q8 && x <= t->lo_q8 + EXPO_GAP_Q8 + EXPO_BAND_Q8 ? n : 0u;
+        t->near_hi += x < t->hi_q8 - EXPO_GAP_Q8 && x >= t->hi_q8 - EXPO_GAP_Q8 - EXPO_BAND_Q8 ? n : 0u;
     }
 }
 
-/* How far past its limit a censored tail of `count` pixels spans, from the `near` pixels within
- * EXPO_BAND_Q8 inside it, at most `cap`. */
+/* How far past its limit a censored tail of `count` pixels spans, from the `near` pixels in the
+ * EXPO_BAND_Q8 that starts EXPO_GAP_Q8 inside it, at most `cap`. */
 static int32_t tail_span(uint32_t count, uint32_t near, int32_t cap)
 {
     if (count == 0)
@@ -319,8 +326,25 @@ static int32_t gain_of_tick(uint32_t own_ps, uint32_t tick_ps, int32_t near_q8)
     return lo;
 }
 
+/* Half the gap (WDR_FW_EXPO_DAMP_SHIFT), truncated; past EXPO_FAST_Q8 all of the excess at once
+ * (the dark scene starts 1.5 ln off: 2 frames fewer to settle). A gap of one halves to no step,
+ * and the key stalled 1/256 on the side it came from (the dark scene 5 frames at +2.60 %, its
+ * settling point +2.20 %): a step of one is taken after two such frames alike. Taken at every
+ * one, the HDR wedge's estimate flipping by 1/256 made a limit cycle (late frames 0.4 % apart). */
+int32_t wdr_fw_expo_step(int32_t gap, int8_t *last_nudge)
+{
+    const int32_t fast = EXPO_FAST_Q8, damped = EXPO_FAST_Q8 / (1 << WDR_FW_EXPO_DAMP_SHIFT);
+    int8_t nudge = gap == 1 ? 1 : gap == -1 ? -1 : 0, prev = *last_nudge;
+    *last_nudge = nudge && nudge != prev ? nudge : 0;
+    if (gap > fast)
+        return gap - fast + damped;
+    if (gap < -fast)
+        return gap + fast - damped;
+    return nudge && nudge == prev ? nudge : gap / (1 << WDR_FW_EXPO_DAMP_SHIFT);
+}
+
 /* After a whole frame: the scene's key is the gain of the tick played plus the error measured
- * under it; the gain moves half way there, within the limits. */
+ * under it; the gain moves by wdr_fw_expo_step toward it, within the limits. */
 void wdr_fw_expo_frame_end(wdr_fw *fw, bool complete)
 {
     if (!fw->expo_auto || !complete)
@@ -328,7 +352,7 @@ void wdr_fw_expo_frame_end(wdr_fw *fw, bool complete)
     int32_t error = frame_log_average(fw); /* ln(L_avg / key) at the tick in force */
     fw->expo_last_q8 = error;
     int32_t played = gain_of_tick(fw->lut.h.tick_ps, fw->expo_tick_ps, fw->expo_gain_q8);
-    int32_t step = (played + error - fw->expo_gain_q8) / (1 << WDR_FW_EXPO_DAMP_SHIFT);
+    int32_t step = wdr_fw_expo_step(played + error - fw->expo_gain_q8, &fw->expo_last_nudge);
     /* Near the DAC's rate or the longest integration, halve the step until it fits: the tick
      * then stops within 1/256 of the limit. */
     for (int tries = 0; tries < 9 && step; tries++, step /= 2) {

@@ -81,6 +81,7 @@ typedef struct wdr_fw {
     bool expo_auto;               /* SET_EXPOSURE 1 */
     int32_t expo_gain_q8;         /* ln(own tick / tick in force) * 256: the scene against the LUT's key */
     int32_t expo_last_q8;         /* last frame's measured ln(L_avg / key) * 256, at the tick then in force */
+    int8_t expo_last_nudge;       /* the sign of the last frame's 1/256 gap, which a halved step leaves */
     uint32_t expo_tick_ps;        /* tick the next frame plays */
     uint32_t expo_min_step_ticks; /* shortest DAC step of the active LUT, in its ticks */
     uint32_t expo_hist[WDR_FW_EXPO_HIST]; /* the frame's corrected codes, code >> expo_hist_shift */
@@ -130,5 +131,8 @@ void wdr_fw_expo_reset(wdr_fw *fw);
 void wdr_fw_expo_frame_start(wdr_fw *fw);
 void wdr_fw_expo_row(wdr_fw *fw, const uint16_t *codes, uint16_t width);
 void wdr_fw_expo_frame_end(wdr_fw *fw, bool complete);
+/* The gain step for a frame whose key lies `gap` (ln * 256) from the gain in force; `last_nudge`
+ * carries the sign of the previous frame's gap of one from frame to frame. */
+int32_t wdr_fw_expo_step(int32_t gap, int8_t *last_nudge);
 
 #endif
