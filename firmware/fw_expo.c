@@ -9,10 +9,10 @@
  * Codes at the floor or the ceiling only say "at most" / "at least" that current: they are
  * censored, not counted at the limit. Their mean is estimated from their fraction and the density
  * of the scene just inside the limit, continued past it (uniform in ln I, as over a log gradient):
- * a fraction p beyond the limit against q within BAND of it spans BAND p / q, so its mean lies half
- * that beyond. The span is capped at WDR_FW_EXPO_TAIL_MAX_Q8, and below the top by the tone map's
+ * a fraction p beyond the limit against q within a BAND that starts GAP inside it spans BAND p / q,
+ * so its mean lies half that beyond. The span is capped at WDR_FW_EXPO_TAIL_MAX_Q8, and below the top by the tone map's
  * guard (1e-9 of the maximum). Then the gain moves by half of the error (damped; wdr_fw_expo_step
- * says how far off the key is far, and how a last 1/256 is taken), the new tick
+ * also says how a key far off and a last 1/256 move), the new tick
  * must keep every DAC step at least WDR_FW_DAC_MIN_UPDATE_PS long and the integration at most
  * WDR_FW_MAX_INTEGRATION_NS; a step that would break either is halved until it fits. */
 #include "wdr_fw.h"
@@ -21,10 +21,10 @@
 #define LOG2E_Q8 369       /* 1/ln 2 in 1/256 */
 #define EXPO_NOISE_CODES 4 /* codes a pixel at a limit may read past it (noise): censored too */
 #define EXPO_BAND_Q8 256   /* the density beyond a limit is the density over 1 ln inside it, */
-#define EXPO_FAST_Q8 128   /* a key more than 0.5 ln off moves to 0.25 ln off at once */
 #define EXPO_GAP_Q8 128    /* from 0.5 ln in: noise and mismatch blur which pixels a limit censors
                             * over about that much, and a band that starts at the limit counted
                             * 5 % too few (the HDR wedge's tail 0.27 ln too long: key -1.9 %) */
+#define EXPO_FAST_Q8 128   /* a key more than 0.5 ln off moves to 0.25 ln off at once */
 #define EXPO_GUARD_Q8 5305 /* ln(1e9) * 256: the tone map counts nothing below 1e-9 of the maximum */
 #ifndef WDR_FW_EXPO_TAIL_MAX_Q8
 #define WDR_FW_EXPO_TAIL_MAX_Q8 2048 /* a censored tail spans at most 8 ln (3.5 decades) */
