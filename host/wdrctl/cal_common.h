@@ -69,7 +69,8 @@ extern const cli_choice cal_on_off[], cal_forms[];
 #define CAL_FORM_AUTO (-1) /* --form auto: the smallest form that meets the target (cal_form_auto.h) */
 #define CAL_ROW_BOARD                                                                                                  \
     {                                                                                                                  \
-        "board", 0, CLI_STRING, CAL_O(board), "NAME|FILE", "board: a name (sim-vga) or a board.json file",             \
+        "board", 0, CLI_STRING, CAL_O(board), "NAME|FILE",                                                          \
+            "board: a name (sim-vga) or a board.json file (with --device: the board's own, by the name it gives)",     \
             .values = "@boards"                                                                                        \
     }
 #define CAL_ROW_OPERATOR                                                                                               \

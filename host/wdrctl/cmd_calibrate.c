@@ -85,6 +85,34 @@ static int open_device(const cal_opts *o, device_src *d, wdr_cal_source *src)
     return EX_OK; /* frames come raw (wdr_client_capture_raw): no table is changed to measure */
 }
 
+/* The board file that describes the board at --device: --board, else the one the board names in
+ * INFO. Its physics sizes the droop in the LUT's exposure block and the read delay of the designed
+ * response, so a file for another geometry is refused (sim-vga's file on sim-qvga put 4x the read
+ * delay and another chip's hold leak into the table). */
+static int load_device_board(const cal_opts *o, const wdr_info *in, wdr_board *b)
+{
+    const char *name = o->board ? o->board : in->name[0] ? in->name : NULL;
+    if (!name)
+        return wdrctl_fail(EX_USAGE, "calibrate: the board at %s gives no name: give --board NAME|FILE", o->device);
+    int rc = cal_load_board(name, b);
+    if (rc != EX_OK)
+        return o->board ? rc
+                        : wdrctl_fail(rc, "calibrate: the board at %s calls itself '%s': give --board for its board file",
+                                      o->device, in->name);
+    const char *field = b->width != in->width     ? "geometry.width"
+                        : b->height != in->height ? "geometry.height"
+                        : b->adc_bits != in->adc_bits ? "adc.bits"
+                        : b->dac_bits != in->dac_bits ? "dac.bits"
+                                                      : NULL;
+    if (field)
+        return wdrctl_fail(EX_CONFIG,
+                           "calibrate: board file '%s' (%dx%d, %d-bit ADC, %d-bit DAC) does not describe the board at "
+                           "%s ('%s', %ux%u, %u-bit ADC, %u-bit DAC): field %s differs; give --board for that board",
+                           name, b->width, b->height, b->adc_bits, b->dac_bits, o->device, in->name, in->width,
+                           in->height, in->adc_bits, in->dac_bits, field);
+    return EX_OK;
+}
+
 /* On success and on failure alike: the scene goes back in front of a simulated board (a failure
  * to do so fails a calibration that had succeeded; after a failure it is only reported). */
 static int close_device(device_src *d, int rc)
@@ -528,12 +556,12 @@ int cmd_calibrate(int argc, char **argv)
         wdr_cal_source src;
         verify_ctx v = {.quantised = 1, .temporal = 1, .holds_with = "the board as it runs (its converters and noise)"};
         wdr_cal_design design;
-        if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = cal_load_board(o.board, &b)) == EX_OK &&
+        if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = load_device_board(&o, &d.conn.c->info, &b)) == EX_OK &&
             (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK &&
             (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &b, &src, &design, &r.margin)) == EX_OK) &&
             (rc = require_lut(&d, o.device)) == EX_OK) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits);
-            cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board file (--board, default sim-vga) */
+            cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board's file */
             v.can_light = d.board.simulated, v.design = &design;
             rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model, &v);
             if (rc == EX_OK && o.upload)

@@ -101,4 +101,18 @@ echo "ok: over the limit: exit 65, the count by kind, no table written, the boar
 "$wdrctl" calibrate --frames 2 --max-flagged 5x -o "$dir/x.bin" 2>"$dir/bad.err"
 rc=$?
 [ "$rc" -eq 64 ] && grep -q "option --max-flagged: '5x'" "$dir/bad.err" || fail "--max-flagged 5x: exit $rc"
+
+# ---- 4. the board file is the board's own ----
+# Sections 1 and 3 give no --board: the file is the one the board names (sim-qvga). Another
+# board's file is refused before anything is measured or changed: sim-vga's geometry put 4x the
+# read delay and another chip's hold leak into the LUT's exposure block.
+"$wdrctl" calibrate --device "$WDR_DEVICE" --board sim-vga --frames 2 --lut "$dir/r.lut" --upload -o "$dir/vga.bin" 2>"$dir/vga.err"
+rc=$?
+cat "$dir/vga.err"
+[ "$rc" -eq 78 ] || fail "--board sim-vga on a sim-qvga board: exit $rc, expected 78"
+grep -q "board file 'sim-vga' (640x480.*does not describe the board at .*('sim-qvga', 160x120.*field geometry.width differs" \
+    "$dir/vga.err" || fail "--board sim-vga on a sim-qvga board: the message does not name the field and both boards"
+now=$("$wdrctl" status --json | tr -d ' \t\n' | sed -n 's/.*"calibration":{[^}]*"crc":"\([0-9a-f]*\)".*/\1/p')
+[ "$now" = "$crc" ] && [ ! -e "$dir/vga.bin" ] || fail "a refused board file changed the board's tables or wrote one"
+echo "ok: another board's file is refused: exit 78, the field named, the board keeps its tables"
 echo "calibrate on the board: ok"

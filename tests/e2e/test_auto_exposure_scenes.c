@@ -125,6 +125,20 @@ static int save(const char *path, const uint8_t *bytes, size_t len)
     return ok ? 0 : -1;
 }
 
+/* A copy of the file at `from` (the LUT as calibrate left it), for WDR_EXPO_DUMP. */
+static int save_copy(const char *to, const char *from)
+{
+    FILE *f = fopen(from, "rb");
+    if (!f)
+        return -1;
+    uint8_t *bytes = malloc(1u << 24);
+    size_t len = bytes ? fread(bytes, 1, 1u << 24, f) : 0;
+    fclose(f);
+    int rc = bytes ? save(to, bytes, len) : -1;
+    free(bytes);
+    return rc;
+}
+
 /* Calibrate the board through wdrctl (one host at a time), then connect again. */
 static int calibrate(e2e_board *rig, const char *lut_path, const char *frames)
 {
@@ -173,14 +187,15 @@ static int run_scene(const char *board_name, const scene_def *d, unsigned long l
         goto stop;
     double key[FRAMES], settled = 0;
     printf("%s scene, chip seed %llu: truth %.4g A (%.4g A with the dark current)\nframe | key in force A | error %% | "
-           "tick ps\n",
+           "tick ps | measured ln(L_avg / key) | integration ns\n",
            d->name, seed, o->truth_a, o->truth_dark_a);
     for (int k = 0; k < FRAMES; k++) {
         wdr_status_report st;
         if (wdr_client_capture(rig.c, 1, frame, NULL, NULL) != WDR_OK || wdr_client_status(rig.c, &st) != WDR_OK)
             goto stop;
         key[k] = key_a * exp(st.key_gain_q8 / 256.0);
-        printf("%5d | %14.5g | %+7.2f | %u\n", k + 1, key[k], 100 * (key[k] / o->truth_a - 1), st.tick_ps);
+        printf("%5d | %14.5g | %+7.2f | %u | %+.4f | %u\n", k + 1, key[k], 100 * (key[k] / o->truth_a - 1), st.tick_ps,
+               st.last_error_q8 / 256.0, st.integration_ns);
         settled += k >= SETTLED_FROM ? key[k] / (FRAMES - SETTLED_FROM) : 0;
     }
     if (getenv("WDR_EXPO_DUMP")) { /* the last frame's codes and the table, for a look by hand */
@@ -188,7 +203,7 @@ static int run_scene(const char *board_name, const scene_def *d, unsigned long l
         snprintf(dump, sizeof dump, "%s/%s_%llu.u16", getenv("WDR_EXPO_DUMP"), d->name, seed);
         save(dump, (const uint8_t *)frame, sizeof *frame * (size_t)n);
         snprintf(dump, sizeof dump, "%s/%s_%llu.lut", getenv("WDR_EXPO_DUMP"), d->name, seed);
-        save(dump, lut, lut_len);
+        save_copy(dump, lut_path); /* the table the board plays: calibrate stores its margin in it */
         snprintf(dump, sizeof dump, "%s/%s_%llu.f32", getenv("WDR_EXPO_DUMP"), d->name, seed);
         save(dump, (const uint8_t *)amps, sizeof *amps * (size_t)n);
         printf("dump: last key %.6g A\n", key[FRAMES - 1]);
