@@ -125,20 +125,6 @@ static int save(const char *path, const uint8_t *bytes, size_t len)
     return ok ? 0 : -1;
 }
 
-/* A copy of the file at `from` (the LUT as calibrate left it), for WDR_EXPO_DUMP. */
-static int save_copy(const char *to, const char *from)
-{
-    FILE *f = fopen(from, "rb");
-    if (!f)
-        return -1;
-    uint8_t *bytes = malloc(1u << 24);
-    size_t len = bytes ? fread(bytes, 1, 1u << 24, f) : 0;
-    fclose(f);
-    int rc = bytes ? save(to, bytes, len) : -1;
-    free(bytes);
-    return rc;
-}
-
 /* Calibrate the board through wdrctl (one host at a time), then connect again. */
 static int calibrate(e2e_board *rig, const char *lut_path, const char *frames)
 {
@@ -203,7 +189,7 @@ static int run_scene(const char *board_name, const scene_def *d, unsigned long l
         snprintf(dump, sizeof dump, "%s/%s_%llu.u16", getenv("WDR_EXPO_DUMP"), d->name, seed);
         save(dump, (const uint8_t *)frame, sizeof *frame * (size_t)n);
         snprintf(dump, sizeof dump, "%s/%s_%llu.lut", getenv("WDR_EXPO_DUMP"), d->name, seed);
-        save_copy(dump, lut_path); /* the table the board plays: calibrate stores its margin in it */
+        save(dump, lut, lut_len); /* as built: the board plays it with calibrate's margin added */
         snprintf(dump, sizeof dump, "%s/%s_%llu.f32", getenv("WDR_EXPO_DUMP"), d->name, seed);
         save(dump, (const uint8_t *)amps, sizeof *amps * (size_t)n);
         printf("dump: last key %.6g A\n", key[FRAMES - 1]);
