@@ -24,6 +24,7 @@
 #define EXPO_GAP_Q8 128    /* from 0.5 ln in: noise and mismatch blur which pixels a limit censors
                             * over about that much, and a band that starts at the limit counted
                             * 5 % too few (the HDR wedge's tail 0.27 ln too long: key -1.9 %) */
+#define EXPO_RAMP_Q8 128   /* the band's edges ramp over 0.5 ln (band_weight_q8) */
 #define EXPO_FAST_Q8 128   /* a key more than 0.5 ln off moves to 0.25 ln off at once */
 #define EXPO_GUARD_Q8 5305 /* ln(1e9) * 256: the tone map counts nothing below 1e-9 of the maximum */
 #ifndef WDR_FW_EXPO_TAIL_MAX_Q8
@@ -73,14 +74,15 @@ static bool tick_allowed(const wdr_fw *fw, uint32_t tick_ps)
     return tick_ps && step_ps >= WDR_FW_DAC_MIN_UPDATE_PS && t_int_ns <= WDR_FW_MAX_INTEGRATION_NS;
 }
 
-/* ln(I / I_key) * 256 of code: the table's bins interpolated linearly; the last bin is flat. */
-static int32_t table_q8(const wdr_lut_exposure *ex, uint32_t code)
+/* ln(I / I_key) * 256 of a code in 1/256 (the table interpolated linearly, flat past its last bin). */
+static int32_t table_q8_fine(const wdr_lut_exposure *ex, int32_t code_q8)
 {
-    uint32_t bin = code >> ex->code_shift, mask = (1u << ex->code_shift) - 1u;
+    uint32_t c = code_q8 > 0 ? (uint32_t)code_q8 : 0u, sh = 8u + ex->code_shift;
+    uint32_t bin = c >> sh;
     if (bin >= ex->bins - 1u)
         return ex->ln_q8[ex->bins - 1u];
     int32_t lo = ex->ln_q8[bin], hi = ex->ln_q8[bin + 1u];
-    return lo + (((hi - lo) * (int32_t)(code & mask)) >> ex->code_shift);
+    return lo + (int32_t)(((int64_t)(hi - lo) * (int32_t)(c & ((1u << sh) - 1u))) >> sh);
 }
 
 /* The histogram's resolution and the censoring limits, from the table: the floor lies in the bin
@@ -107,8 +109,11 @@ static void expo_limits(wdr_fw *fw)
     hi_code = hi_code > lo_code ? lo_code : hi_code;
     fw->expo_lo_index = (uint16_t)((uint32_t)lo_code >> hs);
     fw->expo_hi_index = (uint16_t)(((uint32_t)hi_code + (1u << hs) - 1u) >> hs);
-    fw->expo_lo_q8 = table_q8(ex, (uint32_t)lo_code);
-    fw->expo_hi_q8 = table_q8(ex, (uint32_t)hi_code);
+    /* a limit's value is the table's half a code before its first censored code, where tally()'s
+     * nearest whole code changes sides: one code spans 0.1-0.3 ln at the ends, and the value at the
+     * code itself put the HDR wedge's ceiling 0.15 ln low (its censored tail read 7.72 for 7.87) */
+    fw->expo_lo_q8 = table_q8_fine(ex, (int32_t)(((uint32_t)fw->expo_lo_index << (8u + hs)) - 128u));
+    fw->expo_hi_q8 = table_q8_fine(ex, (int32_t)(((uint32_t)fw->expo_hi_index << (8u + hs)) - 128u));
 }
 
 /* A new LUT: its own tick again, its table (or none), the gain back to 0. */
@@ -166,21 +171,11 @@ void wdr_fw_expo_row(wdr_fw *fw, const uint16_t *codes, uint16_t width)
  * counts at each limit, and the counts within EXPO_BAND_Q8 inside each limit. */
 typedef struct expo_tally {
     int64_t sum_q8;
-    uint32_t seen, below, above, near_lo, near_hi;
+    uint32_t seen, below, above;
+    uint64_t near_lo_q8, near_hi_q8; /* weighted by band_weight_q8 */
     int32_t top_q8;        /* the brightest visible value */
     int32_t lo_q8, hi_q8;  /* the limits' values, dark current out */
 } expo_tally;
-
-/* ln(I / I_key) * 256 of a code in 1/256 (the table interpolated linearly, flat past its last bin). */
-static int32_t table_q8_fine(const wdr_lut_exposure *ex, int32_t code_q8)
-{
-    uint32_t c = code_q8 > 0 ? (uint32_t)code_q8 : 0u, sh = 8u + ex->code_shift;
-    uint32_t bin = c >> sh;
-    if (bin >= ex->bins - 1u)
-        return ex->ln_q8[ex->bins - 1u];
-    int32_t lo = ex->ln_q8[bin], hi = ex->ln_q8[bin + 1u];
-    return lo + (int32_t)(((int64_t)(hi - lo) * (int32_t)(c & ((1u << sh) - 1u))) >> sh);
-}
 
 /* log2(1 + i/16) for i = 0..16, Q12: the fraction of log2 between table points is interpolated. */
 static const uint16_t log2_q12[17] = {0,    358,  696,  1016, 1319, 1607, 1882, 2145, 2396,
@@ -237,6 +232,21 @@ static int32_t hold_excess_q8(const wdr_fw *fw)
     return (int32_t)(((uint64_t)fw->expo_tick_ps * 256u + own / 2u) / own) - 256;
 }
 
+/* The weight, in 1/256, of a value d (1/256 ln) inside a limit in the density band: 1 over
+ * [GAP, GAP + BAND], its two edges ramped over EXPO_RAMP_Q8 (the same width in all). A log wedge
+ * reaches the band row by row (on sim-qvga's HDR wedge a row is 0.13 ln and 14 % of the band's
+ * count): with hard edges the estimate jumped as the exposure moved a row in or out, and the key
+ * settled on whichever side (EXPO_GAP_Q8 48 / 64 / 96: -4.07 / -0.78 / -3.17 %). */
+static uint32_t band_weight_q8(int32_t d)
+{
+    const int32_t ramp = EXPO_RAMP_Q8, a = EXPO_GAP_Q8 - ramp / 2, b = EXPO_GAP_Q8 + EXPO_BAND_Q8 - ramp / 2;
+    if (d <= a || d >= b + ramp)
+        return 0u;
+    if (d < a + ramp)
+        return (uint32_t)((d - a) * 256 / ramp);
+    return d > b ? (uint32_t)((b + ramp - d) * 256 / ramp) : 256u;
+}
+
 static void tally(const wdr_fw *fw, expo_tally *t)
 {
     const wdr_lut_exposure *ex = &fw->expo;
@@ -278,18 +288,18 @@ static void tally(const wdr_fw *fw, expo_tally *t)
         t->top_q8 = t->seen ? t->top_q8 : x; /* codes fall as light rises: the first seen is the top */
         t->sum_q8 += (int64_t)n * x;
         t->seen += n;
-        t->near_lo += x > t->lo_q8 + EXPO_GAP_Q8 && x <= t->lo_q8 + EXPO_GAP_Q8 + EXPO_BAND_Q8 ? n : 0u;
-        t->near_hi += x < t->hi_q8 - EXPO_GAP_Q8 && x >= t->hi_q8 - EXPO_GAP_Q8 - EXPO_BAND_Q8 ? n : 0u;
+        t->near_lo_q8 += (uint64_t)n * band_weight_q8(x - t->lo_q8);
+        t->near_hi_q8 += (uint64_t)n * band_weight_q8(t->hi_q8 - x);
     }
 }
 
 /* How far past its limit a censored tail of `count` pixels spans, from the `near` pixels in the
  * EXPO_BAND_Q8 that starts EXPO_GAP_Q8 inside it, at most `cap`. */
-static int32_t tail_span(uint32_t count, uint32_t near, int32_t cap)
+static int32_t tail_span(uint32_t count, uint64_t near_q8, int32_t cap)
 {
     if (count == 0)
         return 0;
-    int64_t span = near ? (int64_t)EXPO_BAND_Q8 * count / near : cap;
+    int64_t span = near_q8 ? (int64_t)((uint64_t)EXPO_BAND_Q8 * 256u * count / near_q8) : cap;
     return span < cap ? (int32_t)span : cap;
 }
 
@@ -301,11 +311,11 @@ static int32_t frame_log_average(const wdr_fw *fw)
     uint32_t all = t.seen + t.below + t.above;
     if (all == 0)
         return 0;
-    int32_t hi_span = tail_span(t.above, t.near_hi, WDR_FW_EXPO_TAIL_MAX_Q8);
+    int32_t hi_span = tail_span(t.above, t.near_hi_q8, WDR_FW_EXPO_TAIL_MAX_Q8);
     int32_t top = t.above ? t.hi_q8 + hi_span : t.top_q8;
     int32_t guard = t.lo_q8 - (top - EXPO_GUARD_Q8); /* room above the tone map's guard */
     int32_t lo_cap = guard < WDR_FW_EXPO_TAIL_MAX_Q8 ? (guard > 0 ? guard : 0) : WDR_FW_EXPO_TAIL_MAX_Q8;
-    int32_t lo_span = tail_span(t.below, t.near_lo, lo_cap);
+    int32_t lo_span = tail_span(t.below, t.near_lo_q8, lo_cap);
     int64_t sum = t.sum_q8 + (int64_t)t.below * (t.lo_q8 - lo_span / 2) + (int64_t)t.above * (t.hi_q8 + hi_span / 2);
     return (int32_t)(sum / (int64_t)all);
 }

@@ -64,9 +64,10 @@ double wdr_ramp_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operato
                                double i_min, double i_max, int n, double *worst_i);
 
 /* The exposure table of a LUT (LUT 1.1): per bin of corrected codes, ln(I / key_amp) * 256 of the
- * current whose ideal code is the bin's first code; key_amp is the log-average current the ramp was
- * built for (L_avg / lum_per_A). */
-void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out);
+ * current whose ideal code is the bin's first code (a DAC step's code at the middle of the currents
+ * it holds); key_amp is the log-average current the ramp was built for (L_avg / lum_per_A).
+ * @retval WDR_OK, WDR_E_NOMEM */
+int wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out);
 
 /* The droop array of the exposure block at the end of the LUT in bytes, computed again for the
  * LUT's own integration time (in place, CRC too): calibrate's margin lengthens the integration

@@ -15,26 +15,32 @@ static double read_droop_v(const wdr_board *b)
     return b->hold_leak_a / b->c_hold_f * 0.5 * (b->height > 0 ? b->height - 1 : 0) * b->row_time_s;
 }
 
-/* Unrounded ADC code of an ideal pixel with current i under lut, read at the middle row. */
-static double ideal_code(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double i)
+/* The nominal pixel's G at the middle row's read, with light i, as the calibration's design maps
+ * corrected codes (host/cal/fit/cal_design.c): the ramp sees the light plus the board's dark
+ * current, and G droops from the crossing to the integration's end, then for the read delay.
+ * Without the first droop the table read sim-qvga's brightest 1.1 ln 0.19 ln bright (about 0.6
+ * code, where one code spans 0.1-0.3 ln). *own_droop gets that droop (V). */
+static double held_g(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double i,
+                     double *own_droop)
 {
-    double v = wdr_pixel_sf_out(&px->dev, wdr_ramp_lut_ideal_response(px, lut, i) - read_droop_v(b));
-    return (b->adc_gain * v + b->adc_offset_v - b->adc_lo_v) / (b->adc_hi_v - b->adc_lo_v) * ((1u << b->adc_bits) - 1u);
+    double total = i + b->dark_current_a, g = wdr_ramp_lut_ideal_response(px, lut, total);
+    double t_end = (double)lut->h.t_integration_ticks * lut->h.tick_ps * 1e-12;
+    double t_c = fmin(wdr_ideal_cross_time(px, total, g), t_end);
+    *own_droop = b->hold_leak_a * (t_end - (t_c > 0 ? t_c : 0)) / b->c_hold_f;
+    return g - *own_droop - read_droop_v(b);
 }
 
-/* ln I whose code is `code`: the code falls as light rises, so bisect on [ln i_min, ln i_max]
- * (codes outside the sensor's range get its ends: the floor and the ceiling). */
-static double ln_current_for_code(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double code)
+static double codes_per_volt(const wdr_board *b)
 {
-    double lo = log(b->i_min_a), hi = log(b->i_max_a);
-    for (int k = 0; k < 48; k++) {
-        double mid = 0.5 * (lo + hi);
-        if (ideal_code(px, b, lut, exp(mid)) > code)
-            lo = mid; /* still too dark */
-        else
-            hi = mid;
-    }
-    return 0.5 * (lo + hi);
+    return b->adc_gain / (b->adc_hi_v - b->adc_lo_v) * ((1u << b->adc_bits) - 1u);
+}
+
+/* Unrounded ADC code of the nominal pixel with light i under lut, read at the middle row. */
+static double ideal_code(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double i)
+{
+    double dv, v = wdr_pixel_sf_out(&px->dev, held_g(px, b, lut, i, &dv));
+    return (b->adc_offset_v - b->adc_lo_v) / (b->adc_hi_v - b->adc_lo_v) * ((1u << b->adc_bits) - 1u) +
+           codes_per_volt(b) * v;
 }
 
 /* Codes the hold droop takes from code `code` per unit of (tick / own tick - 1): a pixel that
@@ -42,13 +48,8 @@ static double ln_current_for_code(const wdr_ideal_pixel *px, const wdr_board *b,
  * the own tick's droop are in the calibration's nominal response, the rest is (m - 1) (T - t_c). */
 static double droop_codes(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double ln_i)
 {
-    double i = exp(ln_i), g = wdr_ramp_lut_ideal_response(px, lut, i);
-    double t_end = (double)lut->h.t_integration_ticks * lut->h.tick_ps * 1e-12;
-    double t_c = fmin(wdr_ideal_cross_time(px, i, g), t_end);
-    double dv = b->hold_leak_a * (t_end - (t_c > 0 ? t_c : 0)) / b->c_hold_f;
-    double scale = b->adc_gain / (b->adc_hi_v - b->adc_lo_v) * ((1u << b->adc_bits) - 1u);
-    g -= read_droop_v(b);
-    return scale * (wdr_pixel_sf_out(&px->dev, g) - wdr_pixel_sf_out(&px->dev, g - dv));
+    double dv, g = held_g(px, b, lut, exp(ln_i), &dv);
+    return codes_per_volt(b) * (wdr_pixel_sf_out(&px->dev, g) - wdr_pixel_sf_out(&px->dev, g - dv));
 }
 
 /* A bin's droop per unit of (tick / own tick - 1), in 1/256 code, at the current ln_i of its
@@ -92,7 +93,50 @@ static int fill_droop_from_grid(const wdr_ideal_pixel *px, const wdr_board *b, c
     return WDR_OK;
 }
 
-void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out)
+/* The nominal pixel's codes on a grid of LN_GRID currents (0.0025 ln apart on sim-vga), each run
+ * of one code (a DAC step that holds over a range of currents) put at its middle: at the bright
+ * end one step holds 0.1-0.4 ln at one code, and bisecting the staircase found each bin's code at
+ * a step's bright edge, so codes there read up to 0.25 ln bright (the HDR wedge's key +1 %). The
+ * runs at the grid's ends keep their inner edge: the floor and the ceiling. Returns the points
+ * kept (codes falling as light rises). */
+#define LN_GRID 8192
+static int code_curve(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double *ln_i,
+                      double *code)
+{
+    double lo = log(b->i_min_a), hi = log(b->i_max_a);
+    for (int k = 0; k < LN_GRID; k++) {
+        ln_i[k] = lo + (hi - lo) * k / (LN_GRID - 1);
+        code[k] = ideal_code(px, b, lut, exp(ln_i[k]));
+    }
+    int kept = 0;
+    for (int a = 0, z; a < LN_GRID; a = z + 1) {
+        for (z = a; z + 1 < LN_GRID && code[z + 1] == code[a];)
+            z++;
+        double x = a == 0 ? ln_i[z] : z == LN_GRID - 1 ? ln_i[a] : 0.5 * (ln_i[a] + ln_i[z]);
+        code[kept] = code[a]; /* kept <= a: nothing unread is overwritten */
+        ln_i[kept++] = x;
+    }
+    return kept;
+}
+
+/* ln I of code y on the curve: linear between its points; past its ends the sensor's ends (the
+ * floor's i_min, the ceiling's i_max), as the firmware reads them (fw_expo.c: expo_limits). */
+static double ln_on_curve(const double *ln_i, const double *code, int n, double y, const wdr_board *b)
+{
+    if (y > code[0])
+        return log(b->i_min_a);
+    if (y < code[n - 1])
+        return log(b->i_max_a);
+    int a = 0, z = n - 1; /* code[a] >= y >= code[z] */
+    while (z - a > 1) {
+        int mid = (a + z) / 2;
+        *(code[mid] >= y ? &a : &z) = mid;
+    }
+    double span = code[a] - code[z];
+    return span > 0 ? ln_i[a] + (code[a] - y) / span * (ln_i[z] - ln_i[a]) : ln_i[a];
+}
+
+int wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out)
 {
     wdr_ideal_pixel px;
     wdr_ideal_pixel_init(b, &px);
@@ -109,13 +153,20 @@ void wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, do
         out->flags |= WDR_LUT_EXPO_DARK;
         out->dark_ln_q8 = (int16_t)lround(fmax(-WDR_LUT_EXPO_MAX_LN_Q8, fmin(WDR_LUT_EXPO_MAX_LN_Q8, q)));
     }
+    double *ln_i = malloc(sizeof *ln_i * 2 * LN_GRID);
+    if (!ln_i)
+        return WDR_E_NOMEM;
+    double *code = ln_i + LN_GRID;
+    int n = code_curve(&px, b, lut, ln_i, code);
     for (uint32_t k = 0; k < out->bins; k++) {
         double first = (double)(k << out->code_shift); /* the firmware interpolates between bins */
-        double ln_rel = ln_current_for_code(&px, b, lut, first) - log(key_amp);
+        double ln_rel = ln_on_curve(ln_i, code, n, first, b) - log(key_amp);
         double q = fmax(-WDR_LUT_EXPO_MAX_LN_Q8, fmin(WDR_LUT_EXPO_MAX_LN_Q8, ln_rel * 256));
         out->ln_q8[k] = (int16_t)lround(q);
         out->droop_q8[k] = droop_q8_at(&px, b, lut, ln_rel + log(key_amp));
     }
+    free(ln_i);
+    return WDR_OK;
 }
 
 int wdr_ramp_lut_refresh_droop(uint8_t *bytes, size_t len, const wdr_board *b)
@@ -150,7 +201,11 @@ int wdr_ramp_lut_append_exposure(uint8_t **bytes, size_t *len, const wdr_board *
     wdr_lut_exposure *ex = malloc(sizeof *ex);
     if (!ex)
         return WDR_E_NOMEM;
-    wdr_ramp_lut_exposure_table(b, &lut, key_amp, ex);
+    rc = wdr_ramp_lut_exposure_table(b, &lut, key_amp, ex);
+    if (rc) {
+        free(ex);
+        return rc;
+    }
     size_t size = WDR_LUT_EXPO_BLOCK_SIZE_FOR(ex->bins, ex->flags);
     uint8_t *grown = realloc(*bytes, end + size);
     if (!grown) {

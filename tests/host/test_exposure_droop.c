@@ -45,7 +45,7 @@ static void droop_follows_the_margin(void **state)
     block_of(ext, ext_len, &refreshed);
     wdr_lut_view v;
     assert_int_equal(wdr_lut_parse(ext, ext_len, &v), WDR_OK);
-    wdr_ramp_lut_exposure_table(&b, &v, key, &rebuilt);
+    assert_int_equal(wdr_ramp_lut_exposure_table(&b, &v, key, &rebuilt), WDR_OK);
     assert_int_equal(refreshed.flags, WDR_LUT_EXPO_DROOP | WDR_LUT_EXPO_DARK);
     assert_int_equal(refreshed.dark_ln_q8, copied.dark_ln_q8);
     assert_memory_equal(refreshed.ln_q8, copied.ln_q8, sizeof copied.ln_q8[0] * copied.bins);
