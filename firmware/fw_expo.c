@@ -168,7 +168,7 @@ void wdr_fw_expo_row(wdr_fw *fw, const uint16_t *codes, uint16_t width)
 }
 
 /* What a frame's histogram says, by part: the visible codes' sum of ln and count, the censored
- * counts at each limit, and the counts within EXPO_BAND_Q8 inside each limit. */
+ * counts at each limit, and the counts in the density band inside each limit (band_weight_q8). */
 typedef struct expo_tally {
     int64_t sum_q8;
     uint32_t seen, below, above;
@@ -293,8 +293,8 @@ static void tally(const wdr_fw *fw, expo_tally *t)
     }
 }
 
-/* How far past its limit a censored tail of `count` pixels spans, from the `near` pixels in the
- * EXPO_BAND_Q8 that starts EXPO_GAP_Q8 inside it, at most `cap`. */
+/* How far past its limit a censored tail of `count` pixels spans, from the weighted count near_q8
+ * (1/256 pixel) of its density band (band_weight_q8: EXPO_BAND_Q8 wide), at most `cap`. */
 static int32_t tail_span(uint32_t count, uint64_t near_q8, int32_t cap)
 {
     if (count == 0)

@@ -35,7 +35,7 @@
 #define SETTLED_FROM 16 /* the settled key: the mean over frames 16..23 */
 #define SETTLE_MAX 12   /* frames within which the key must be within TOLERANCE for good */
 #define TOLERANCE 0.02
-/* Not yet 2 % on the dark scene on every seed: its ramp runs 19.5x longer than its own.
+/* The dark scene's ramp runs 19.5x longer than its own.
  * Measured 2026-12-03, sim-qvga, seeds 1 / 2 / 3: +1.41 / +1.41 / +2.20 % (sim-vga seeds 1, 2:
  * +1.05 %), with three changes: the firmware takes out the dark current the longer hold adds
  * (the LUT's exposure block carries the board's mean dark current; +5.86 / +5.45 / +6.28 %
@@ -49,8 +49,13 @@
  * Later the same day: the censored tail's density band starts 0.5 ln inside the limit (sim-vga
  * hdr -2.84 / -3.93 % -> +0.29 / -0.49 %; e2e_auto_exposure_vga_hdr fails without it, -3.55 %),
  * and the step rule (wdr_fw_expo_step) closes a gap past 0.5 ln at once and takes a last 1/256
- * after two frames alike (seed 3's dark scene had stalled at +2.60 % until frame 13). */
-#define DARK_TOLERANCE 0.025
+ * after two frames alike (seed 3's dark scene had stalled at +2.60 % until frame 13).
+ * Stop 32: the exposure table follows the calibration's design (the droop from the crossing to
+ * the integration's end, the dark current, each DAC step's code at the middle of its currents),
+ * and a limit's value is read half a code inside it: dark +0.62 / +0.62 / +1.41 % (qvga seeds
+ * 4, 5: +0.62 / +0.23 %; vga 1-3: +0.66 %). Now held at 2 %, as the other scenes; fails with the
+ * old table (seed 3: +2.20 %). */
+#define DARK_TOLERANCE 0.02
 
 typedef struct scene_def {
     const char *name, *illumination;

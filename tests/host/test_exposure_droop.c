@@ -56,7 +56,7 @@ static void droop_follows_the_margin(void **state)
         grew += refreshed.droop_q8[k] >= copied.droop_q8[k] + 3;
     }
     print_message("refreshed against rebuilt: worst %d/256 code per unit\n", worst);
-    assert_true(worst <= 1); /* the refresh inverts a grid, the build bisects */
+    assert_true(worst <= 1); /* the refresh and the build invert two grids of their own */
     print_message("margin +%.3g s: %d of %u bins' droop grew by >= 3/256 code per unit\n", added, grew, copied.bins);
     assert_true(grew > (int)copied.bins / 2);
     free(lut);
