@@ -18,7 +18,8 @@
  *   test_auto_exposure_scenes [BOARD [CHIP_SEED ...]]   (default sim-qvga, seed 1)
  * WDR_EXPO_EFFECTS='{"dark": "off", ...}' sets the scenes' effects (sim/scene.c's names), to split
  * an error by its causes; WDR_EXPO_CAL_FRAMES=none runs uncalibrated; WDR_EXPO_SCENES=hdr,dark runs only the
- * scenes named; WDR_EXPO_FORM=basis calibrates with another table form (default compact). */
+ * scenes named; WDR_EXPO_FORM=basis calibrates with another table form (default compact); WDR_EXPO_SCALE=0.5
+ * makes every scene half as bright (the settled tick twice as long). */
 #include "e2e_board.h"
 #include "operators.h"
 #include "ramp.h"
@@ -88,7 +89,7 @@ static int write_scene(const char *path, const scene_def *d, unsigned long long 
             "{\"format\": \"wdrcam-scene\", \"version\": 1, \"comment\": \"auto exposure: %s\",\n"
             " \"illumination\": %s,\n \"lum_to_amp\": 1e-11, \"exposure\": %.17g,\n"
             " \"chip_seed\": %llu, \"frame_seed\": %llu%s%s}\n",
-            d->name, d->illumination, d->exposure, seed, seed + 1000, getenv("WDR_EXPO_EFFECTS") ? ", \"effects\": " : "",
+            d->name, d->illumination, d->exposure * (getenv("WDR_EXPO_SCALE") ? atof(getenv("WDR_EXPO_SCALE")) : 1), seed, seed + 1000, getenv("WDR_EXPO_EFFECTS") ? ", \"effects\": " : "",
             getenv("WDR_EXPO_EFFECTS") ? getenv("WDR_EXPO_EFFECTS") : "");
     return fclose(f) ? -1 : 0;
 }

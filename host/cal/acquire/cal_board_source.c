@@ -58,22 +58,36 @@ int wdr_cal_board_close(wdr_cal_board *d)
     return rc;
 }
 
+int wdr_cal_lut_for_board(const uint8_t *lut, size_t len, const wdr_board *physics, double margin_v, uint8_t **out,
+                          size_t *out_len, double *added_s, double *done_v, char *err, int errlen)
+{
+    int rc = wdr_cal_lut_with_margin(lut, len, margin_v, out, out_len, added_s, done_v, err, errlen);
+    if (rc)
+        return rc;
+    /* the margin lengthens the integration: every crossed pixel holds that much longer */
+    if (physics && (rc = wdr_ramp_lut_refresh_droop(*out, *out_len, physics)) != WDR_OK) {
+        snprintf(err, (size_t)errlen, "the LUT's exposure block with the margin: %s", wdr_strerror(rc));
+        free(*out);
+        *out = NULL;
+    }
+    return rc;
+}
+
+int wdr_cal_board_upload_lut(wdr_cal_board *d, const uint8_t *lut, size_t len)
+{
+    wdr_commit_reply reply;
+    return wdr_client_upload(d->client, WDR_KIND_LUT, lut, len, NULL, NULL, &reply);
+}
+
 int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, const wdr_board *physics,
                             double margin_v, double *added_s, double *done_v, char *err, int errlen)
 {
     uint8_t *ext = NULL;
     size_t ext_len;
-    int rc = wdr_cal_lut_with_margin(lut, len, margin_v, &ext, &ext_len, added_s, done_v, err, errlen);
+    int rc = wdr_cal_lut_for_board(lut, len, physics, margin_v, &ext, &ext_len, added_s, done_v, err, errlen);
     if (rc)
         return rc;
-    /* the margin lengthens the integration: every crossed pixel holds that much longer */
-    if (physics && (rc = wdr_ramp_lut_refresh_droop(ext, ext_len, physics)) != WDR_OK) {
-        snprintf(err, (size_t)errlen, "the LUT's exposure block with the margin: %s", wdr_strerror(rc));
-        free(ext);
-        return rc;
-    }
-    wdr_commit_reply reply;
-    rc = wdr_client_upload(d->client, WDR_KIND_LUT, ext, ext_len, NULL, NULL, &reply);
+    rc = wdr_cal_board_upload_lut(d, ext, ext_len);
     free(ext);
     return rc;
 }

@@ -36,6 +36,14 @@ int wdr_cal_board_close(wdr_cal_board *d);
 int wdr_cal_board_store_lut(wdr_cal_board *d, const uint8_t *lut, size_t len, const wdr_board *physics,
                             double margin_v, double *added_s, double *done_v, char *err, int errlen);
 
+/* The two halves of wdr_cal_board_store_lut: the bytes it stores (*out malloc'd; the extension's
+ * and the droop refresh's errors, err says which), and storing given bytes as the active LUT (the
+ * client's error): calibrate stores the LUT again once its exposure block is anchored at the
+ * calibration's levels (table/cal_exposure.h), which acquisition cannot call. */
+int wdr_cal_lut_for_board(const uint8_t *lut, size_t len, const wdr_board *physics, double margin_v, uint8_t **out,
+                          size_t *out_len, double *added_s, double *done_v, char *err, int errlen);
+int wdr_cal_board_upload_lut(wdr_cal_board *d, const uint8_t *lut, size_t len);
+
 /* The board's margin setter for wdr_cal_margin_size (cal_margin.h): ctx is a wdr_cal_board_lut,
  * the LUT file's bytes, stored again with each margin tried. */
 typedef struct wdr_cal_board_lut {

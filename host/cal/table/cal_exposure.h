@@ -1,0 +1,33 @@
+/* The LUT's exposure table anchored at the calibration's levels.
+ *
+ * The exposure block (firmware/wdr_lut.h, host/lib/ramp_exposure.c) says which current a corrected
+ * code stands for, from the board's designed pixel. The corrected codes are the chip's own nominal
+ * pixel's (the array median, cal_fit_nominal.c), and that differs from the design by the chip's
+ * median mismatch: on sim-qvga's seed 5 the nominal read 0.02-0.12 ln dark of the design below
+ * 1e-13 A, and the firmware's auto exposure, averaging the table over a frame, settled 2.3 % low
+ * on the HDR wedge. At each calibration level the median pixel's code is measured, so the table
+ * is moved there to the level's current: by the difference at each level, linear in code between
+ * levels and held past the first and the last. */
+#ifndef CAL_EXPOSURE_H
+#define CAL_EXPOSURE_H
+#include "board.h"
+#include "cal_fit.h"
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct wdr_cal_exposure_anchors {
+    int n;             /* levels the table was moved at (0: the LUT has no exposure block) */
+    double worst_ln;   /* the largest move, ln units */
+    double worst_at_a; /* at that level's current */
+} wdr_cal_exposure_anchors;
+
+/* Anchor the exposure block at the end of the LUT in bytes (in place, CRC too) at the n levels
+ * amps (A; 0 entries, the dark reference, are skipped): level k's corrected code is
+ * nominal(amps[k]) * code_scale (the table's output scale). b is the board file the block was built
+ * for. A LUT without a block is left as it is (out->n 0).
+ * @retval WDR_OK, the LUT and block parse errors, WDR_E_NOMEM, WDR_E_INVAL (a block of another size
+ *         than this board's design: its key cannot be recovered) */
+int wdr_cal_exposure_anchor(uint8_t *bytes, size_t len, const wdr_board *b, const wdr_nominal *nominal,
+                            double code_scale, const double *amps, int n, wdr_cal_exposure_anchors *out);
+
+#endif
