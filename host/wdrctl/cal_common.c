@@ -52,12 +52,14 @@ double cal_flag_limit_pixels(const cal_flag_limit *l, long n_pixels)
 int cal_parse_options(int argc, char **argv, const cli_command *cmd, cal_opts *o)
 {
     int n_args;
-    *o = (cal_opts){.op_name = "reinhard", .frames = 4, .frames_auto = 1, .adc = 1, .dac = 1, .noise = -1,
+    *o = (cal_opts){.op_name = NULL, .frames = 4, .frames_auto = 1, .adc = 1, .dac = 1, .noise = -1,
                     .sample = 256, .seed = 1, .out_scale = 1,
                     .form = -1};
     int rc = wdrctl_parse(cmd, argc, argv, o, &n_args);
     if (rc != EX_OK)
         return rc;
+    o->op_asked = o->op_name != NULL;
+    o->op_name = o->op_asked ? o->op_name : "reinhard";
     o->noise_asked = o->noise >= 0;
     if (!o->noise_asked)
         o->noise = CAL_NOISE_DEFAULT;

@@ -49,6 +49,7 @@ typedef struct cal_opts {
     int select_n, frames, adc, dac, upload, json, sample, out_scale;
     int noise;       /* simulated chip: temporal noise (shot, kTC, read); calibrate --noise, fpn report per condition */
     int noise_asked; /* --noise was given (a board has its own noise: calibrate --device refuses it) */
+    int op_asked;    /* --operator was given (calibrate --device --lut otherwise takes the LUT's own) */
     const char *frames_text;      /* --frames M or auto */
     const char *max_flagged_text; /* calibrate --max-flagged N|Nppm */
     cal_flag_limit max_flagged;   /* parsed (default CAL_MAX_FLAGGED_DEFAULT) */
@@ -75,7 +76,7 @@ extern const cli_choice cal_on_off[], cal_forms[];
     }
 #define CAL_ROW_OPERATOR                                                                                               \
     {                                                                                                                  \
-        "operator", 0, CLI_STRING, CAL_O(op_name), "NAME", "operator of the simulated chip's LUT (default reinhard)",  \
+        "operator", 0, CLI_STRING, CAL_O(op_name), "NAME", "operator of the LUT (default reinhard; calibrate --device --lut: that LUT's)", \
             .values = "@operators"                                                                                     \
     }
 #define CAL_ROW_ADC                                                                                                    \

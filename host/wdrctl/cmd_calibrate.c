@@ -7,6 +7,7 @@
 #include "file_io.h"
 #include "operators.h"
 #include "transport_client.h"
+#include "wdr_lut.h"
 #include "wdr_err.h"
 #include <cJSON.h>
 #include <math.h>
@@ -81,6 +82,37 @@ static int anchor_exposure(device_src *d, const char *path, const wdr_board *b, 
                 "wdrctl: %s: exposure table anchored at %d calibration levels (the chip's median codes; largest move "
                 "%.3f ln, at %.3g A)\n",
                 path, a.n, a.worst_ln, a.worst_at_a);
+    return EX_OK;
+}
+
+/* The operator a board calibration serves: with --lut, the LUT's own (its header), which
+ * --operator, when given, must name; else --operator (default reinhard). The design, the display
+ * figures and the table's operator field follow it (the table said Reinhard for every board). */
+static int device_operator(cal_opts *o, int *op_id)
+{
+    if (o->lut) {
+        uint8_t *buf;
+        size_t len;
+        wdr_lut_view v;
+        if (wdr_read_file(o->lut, &buf, &len) != WDR_OK)
+            return wdrctl_fail(EX_NOINPUT, "%s: cannot read LUT", o->lut);
+        int rc = wdr_lut_parse(buf, len, &v);
+        const wdr_operator_info *in = rc ? NULL : wdr_operator_info_by_id(v.h.operator_id);
+        free(buf);
+        if (rc)
+            return wdrctl_fail(EX_DATAERR, "%s: not a LUT: %s", o->lut, wdr_strerror(rc));
+        if (!in)
+            return wdrctl_fail(EX_DATAERR, "%s: field operator_id: %u is no known operator", o->lut,
+                               v.h.operator_id);
+        if (o->op_asked && strcmp(in->name, o->op_name))
+            return wdrctl_fail(EX_USAGE, "calibrate: --operator %s, but %s was built for %s", o->op_name, o->lut,
+                               in->name);
+        o->op_name = in->name;
+    }
+    const wdr_operator_info *op = wdr_operator_info_by_name(o->op_name);
+    if (!op)
+        return wdrctl_fail(EX_USAGE, "calibrate: unknown operator '%s' (see 'wdrctl operators')", o->op_name);
+    *op_id = op->id;
     return EX_OK;
 }
 
@@ -588,17 +620,19 @@ int cmd_calibrate(int argc, char **argv)
         r.cfg.n_coeffs = WDR_CAL_COMPACT_COEFFS;
     if (o.device) {
         device_src d;
+        memset(&d, 0, sizeof d); /* closed below even when no connection was opened */
         wdr_cal_source src;
         verify_ctx v = {.quantised = 1, .temporal = 1, .holds_with = "the board as it runs (its converters and noise)"};
         wdr_cal_design design;
-        if ((rc = open_device(&o, &d, &src)) == EX_OK && (rc = load_device_board(&o, &d.conn.c->info, &b)) == EX_OK &&
+        int op_id = WDR_OP_REINHARD;
+        if ((rc = device_operator(&o, &op_id)) == EX_OK && (rc = open_device(&o, &d, &src)) == EX_OK && (rc = load_device_board(&o, &d.conn.c->info, &b)) == EX_OK &&
             (rc = cal_design_for(&b, o.op_name, 0, &design)) == EX_OK && (rc = verify_display(&o, &b, &v)) == EX_OK &&
             (!o.lut || (rc = upload_lut_with_margin(&d, o.lut, &b, &src, &design, &r.margin)) == EX_OK) &&
             (rc = require_lut(&d, o.device)) == EX_OK) {
             cal_set_output(&o, &r.cfg, d.conn.c->info.adc_bits);
             cal_set_step(&b, &r.cfg); /* the DAC and ADC ranges of the board's file */
             v.can_light = d.board.simulated, v.design = &design;
-            rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, WDR_OP_REINHARD, model, &v);
+            rc = calibrate_with(&o, &src, &r, d.conn.c->info.sensor_id, op_id, model, &v);
             if (rc == EX_OK && o.lut)
                 rc = anchor_exposure(&d, o.lut, &b, &r);
             if (rc == EX_OK && o.upload)

@@ -4,6 +4,7 @@
 #    serves the whole run (LUT, probe, levels, verification, upload): a `--once` board, which
 #    ends when its first host disconnects, sees it through; a clean chip flags 0 pixels;
 # 2. a board with no LUT is refused up front: exit 78, "no LUT on the board: upload one or give --lut";
+#    --lut of one operator with --operator of another is refused (exit 64) before anything is uploaded;
 # 3. --max-flagged on a chip with 8 planted defects (the scene's "defects": 2 each of dead, hot,
 #    stuck, saturated; one among the pixels the selection samples): all 8 and no other flagged;
 #    --max-flagged 8 passes and uploads; the default (100 ppm: 1.92 pixels of 19,200) fails with
@@ -58,6 +59,14 @@ export WDR_DEVICE="sim:$dir/d.sock"
     2>"$dir/d.log" &
 pids="$pids $!"
 "$wdrctl" --wait 10000 info >/dev/null || fail "the defects board did not start"
+# a LUT built for one operator and --operator naming another: refused before anything reaches the
+# board (the no-LUT check below then proves that nothing was uploaded)
+"$wdrctl" calibrate --lut "$dir/r.lut" --operator drago --frames 2 -o "$dir/mismatch.bin" >/dev/null 2>"$dir/mismatch.err"
+rc=$?
+cat "$dir/mismatch.err"
+[ "$rc" -eq 64 ] || fail "--lut reinhard --operator drago: exit $rc, expected 64"
+grep -q "operator drago, but .*r.lut was built for reinhard" "$dir/mismatch.err" || fail "operator mismatch: the message does not name both"
+[ ! -e "$dir/mismatch.bin" ] || fail "operator mismatch: a table was written"
 "$wdrctl" calibrate --frames 2 -o "$dir/nolut.bin" >/dev/null 2>"$dir/nolut.err"
 rc=$?
 cat "$dir/nolut.err"

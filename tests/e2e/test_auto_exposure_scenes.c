@@ -18,7 +18,8 @@
  *   test_auto_exposure_scenes [BOARD [CHIP_SEED ...]]   (default sim-qvga, seed 1)
  * WDR_EXPO_EFFECTS='{"dark": "off", ...}' sets the scenes' effects (sim/scene.c's names), to split
  * an error by its causes; WDR_EXPO_CAL_FRAMES=none runs uncalibrated; WDR_EXPO_SCENES=hdr,dark runs only the
- * scenes named; WDR_EXPO_FORM=basis calibrates with another table form (default compact); WDR_EXPO_SCALE=0.5
+ * scenes named; WDR_EXPO_FORM=basis calibrates with another table form (default compact); WDR_EXPO_OP=drago
+ * images and calibrates with another operator's LUT (default reinhard); WDR_EXPO_SCALE=0.5
  * makes every scene half as bright (the settled tick twice as long). */
 #include "e2e_board.h"
 #include "operators.h"
@@ -80,8 +81,16 @@ typedef struct outcome {
     int settle;          /* frames until the key stays within TOLERANCE; FRAMES + 1: never */
 } outcome;
 
+/* An environment knob, or its default: read once, so a NULL never reaches a library call. */
+static const char *env_or(const char *name, const char *fallback)
+{
+    const char *value = getenv(name);
+    return value ? value : fallback;
+}
+
 static int write_scene(const char *path, const scene_def *d, unsigned long long seed)
 {
+    const char *effects = env_or("WDR_EXPO_EFFECTS", NULL);
     FILE *f = fopen(path, "w");
     if (!f)
         return -1;
@@ -89,8 +98,8 @@ static int write_scene(const char *path, const scene_def *d, unsigned long long 
             "{\"format\": \"wdrcam-scene\", \"version\": 1, \"comment\": \"auto exposure: %s\",\n"
             " \"illumination\": %s,\n \"lum_to_amp\": 1e-11, \"exposure\": %.17g,\n"
             " \"chip_seed\": %llu, \"frame_seed\": %llu%s%s}\n",
-            d->name, d->illumination, d->exposure * (getenv("WDR_EXPO_SCALE") ? atof(getenv("WDR_EXPO_SCALE")) : 1), seed, seed + 1000, getenv("WDR_EXPO_EFFECTS") ? ", \"effects\": " : "",
-            getenv("WDR_EXPO_EFFECTS") ? getenv("WDR_EXPO_EFFECTS") : "");
+            d->name, d->illumination, d->exposure * atof(env_or("WDR_EXPO_SCALE", "1")), seed, seed + 1000,
+            effects ? ", \"effects\": " : "", effects ? effects : "");
     return fclose(f) ? -1 : 0;
 }
 
@@ -131,6 +140,12 @@ static int save(const char *path, const uint8_t *bytes, size_t len)
     return ok ? 0 : -1;
 }
 
+/* The operator of the LUT (WDR_EXPO_OP, default Reinhard). */
+static const char *op_name(void)
+{
+    return env_or("WDR_EXPO_OP", "reinhard");
+}
+
 /* Calibrate the board through wdrctl (one host at a time), then connect again. */
 static int calibrate(e2e_board *rig, const char *lut_path, const char *frames)
 {
@@ -141,7 +156,8 @@ static int calibrate(e2e_board *rig, const char *lut_path, const char *frames)
     /* --form compact: exposure does not depend on the table's form, and --form auto's judging of
      * up to four forms per board would add ~24 s here (test_cal_form_auto and e2e_main_job run it) */
     char *argv[] = {WDRCTL_PATH, "calibrate",    "--lut",    (char *)lut_path, "--upload", "-o",      cal_path,
-                    "--frames",  (char *)frames, "--device", rig->address,     "--form",   getenv("WDR_EXPO_FORM") ? getenv("WDR_EXPO_FORM") : "compact", NULL};
+                    "--frames",  (char *)frames, "--device", rig->address,     "--form",   (char *)env_or("WDR_EXPO_FORM", "compact"),
+                    "--operator", (char *)op_name(), NULL};
     int rc = e2e_run(argv, 300);
     return rc == EX_OK && e2e_reconnect(rig) == 0 ? 0 : -1;
 }
@@ -155,7 +171,7 @@ static int run_scene(const char *board_name, const scene_def *d, unsigned long l
     if (!mkdtemp(dir))
         return -1;
     snprintf(path, sizeof path, "%s/%s.json", dir, d->name);
-    snprintf(lut_path, sizeof lut_path, "%s/reinhard.lut", dir);
+    snprintf(lut_path, sizeof lut_path, "%s/%s.lut", dir, op_name());
     float *amps = NULL;
     long n = 0;
     uint8_t *lut = NULL;
@@ -166,7 +182,7 @@ static int run_scene(const char *board_name, const scene_def *d, unsigned long l
         goto out;
     double key_a = 0.18 * rig.board.i_center_a; /* the key the default ramp is built for */
     if (scene_truth(path, &rig.board, o, &amps, &n) ||
-        wdr_ramp_board_lut(&rig.board, "reinhard", &lut, &lut_len, NULL, err, sizeof err) ||
+        wdr_ramp_board_lut(&rig.board, op_name(), &lut, &lut_len, NULL, err, sizeof err) ||
         wdr_ramp_lut_append_exposure(&lut, &lut_len, &rig.board, key_a) || save(lut_path, lut, lut_len))
         goto stop;
     if (wdr_client_upload(rig.c, WDR_KIND_LUT, lut, lut_len, NULL, NULL, NULL) != WDR_OK)
@@ -190,13 +206,14 @@ static int run_scene(const char *board_name, const scene_def *d, unsigned long l
                st.last_error_q8 / 256.0, st.integration_ns);
         settled += k >= SETTLED_FROM ? key[k] / (FRAMES - SETTLED_FROM) : 0;
     }
-    if (getenv("WDR_EXPO_DUMP")) { /* the last frame's codes and the table, for a look by hand */
+    const char *dump_dir = env_or("WDR_EXPO_DUMP", NULL);
+    if (dump_dir) { /* the last frame's codes and the table, for a look by hand */
         char dump[256];
-        snprintf(dump, sizeof dump, "%s/%s_%llu.u16", getenv("WDR_EXPO_DUMP"), d->name, seed);
+        snprintf(dump, sizeof dump, "%s/%s_%llu.u16", dump_dir, d->name, seed);
         save(dump, (const uint8_t *)frame, sizeof *frame * (size_t)n);
-        snprintf(dump, sizeof dump, "%s/%s_%llu.lut", getenv("WDR_EXPO_DUMP"), d->name, seed);
+        snprintf(dump, sizeof dump, "%s/%s_%llu.lut", dump_dir, d->name, seed);
         save(dump, lut, lut_len); /* as built: the board plays it with calibrate's margin added */
-        snprintf(dump, sizeof dump, "%s/%s_%llu.f32", getenv("WDR_EXPO_DUMP"), d->name, seed);
+        snprintf(dump, sizeof dump, "%s/%s_%llu.f32", dump_dir, d->name, seed);
         save(dump, (const uint8_t *)amps, sizeof *amps * (size_t)n);
         printf("dump: last key %.6g A\n", key[FRAMES - 1]);
     }
@@ -265,8 +282,9 @@ int main(int argc, char **argv)
             }
         }
     }
-    printf("\nauto exposure on %s, every effect auto (noise, mismatch, dark current, droop, converters), %s\n",
-           board_name, cal_frames ? "calibrated on the board" : "uncalibrated");
+    printf("\nauto exposure on %s, operator %s, every effect auto (noise, mismatch, dark current, droop, converters), "
+           "%s\n",
+           board_name, op_name(), cal_frames ? "calibrated on the board" : "uncalibrated");
     printf("scene  | seed | true log-average A | settled key A | error %% | worst of frames %d-%d %% | frames to "
            "settle | past floor %% | past ceiling %% | truth with dark current: error %%\n",
            SETTLED_FROM + 1, FRAMES);
