@@ -82,11 +82,15 @@ void wdr_fw_status(const wdr_fw *fw, wdr_status_report *r)
     r->upload_received = wdr_fw_update_open(fw) ? fw->img_up.received : fw->store.up_received;
     r->frames = fw->frame_no;
     r->integration_ns = fw->expo_auto ? 0 : fw->integration_ns;
-    r->tick_ps = fw->expo_auto ? fw->expo_tick_ps : fw->lut_slot >= 0 ? fw->lut.h.tick_ps : 0;
+    /* the wire's tick is whole picoseconds (rounded); the integration counts the fraction */
+    uint64_t tick_q16 = fw->expo_auto ? fw->expo_tick_q16 : fw->lut_slot >= 0 ? (uint64_t)fw->lut.h.tick_ps << 16 : 0;
+    r->tick_ps = (uint32_t)((tick_q16 + 32768u) >> 16);
     if (!r->integration_ns && fw->lut_slot >= 0)
-        r->integration_ns = (uint32_t)((uint64_t)fw->lut.h.t_integration_ticks * r->tick_ps / 1000u);
+        r->integration_ns = (uint32_t)(wdr_ticks_ps(fw->lut.h.t_integration_ticks, (uint32_t)(tick_q16 >> 16),
+                                                    (uint16_t)(tick_q16 & 0xffffu)) /
+                                       1000u);
     r->exposure_auto = fw->expo_auto;
-    r->exposure_flags = fw->expo_has_table;
+    r->exposure_flags = (uint8_t)(fw->expo_has_table | (fw->expo_auto ? fw->expo_held : 0u));
     r->key_gain_q8 = fw->expo_gain_q8;
     r->last_error_q8 = fw->expo_last_q8;
     r->frame_time_ns = fw->frame_time_ns;

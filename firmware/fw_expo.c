@@ -19,6 +19,7 @@
 #include <string.h>
 
 #define LOG2E_Q8 369       /* 1/ln 2 in 1/256 */
+#define LOG2E_Q16 94548    /* 1/ln 2 in 1/65536: in 1/256 the tick was 0.13 % of the gain off per ln */
 #define EXPO_NOISE_CODES 4 /* codes a pixel at a limit may read past it (noise): censored too */
 #define EXPO_BAND_Q8 256   /* the density beyond a limit is the density over 1 ln inside it, */
 #define EXPO_GAP_Q8 128    /* from 0.5 ln in: noise and mismatch blur which pixels a limit censors
@@ -35,23 +36,34 @@
 static const uint16_t exp2_q15[17] = {32768, 34219, 35734, 37316, 38968, 40693, 42495, 44376, 46341,
                                       48393, 50535, 52773, 55109, 57549, 60097, 62757, 65535};
 
-/* own * exp(-gain / 256), in ps; gain in ln units of 1/256. 0 if it overflows 32 bits or falls
- * below 1 ps. Defined for every gain: own * frac is below 2^48, so a factor under 2^-48 is 0
- * (a shift by 64 or more, reached once the gain passed about 8,600, was undefined). */
-static uint32_t tick_for_gain(uint32_t own_ps, int32_t gain_q8)
+/* own * exp(-gain / 256), in 1/65536 ps; gain in ln units of 1/256. 0 if its whole picoseconds
+ * overflow 32 bits or it falls below 1 ps. Defined for every gain: own * frac is below 2^48, so a
+ * factor under 2^-48 is 0 (a shift by 64 or more, reached once the gain passed about 8,600, was
+ * undefined). The fraction of a picosecond is kept: at the 16-20 ps a bright scene wants one whole
+ * picosecond is 5-6 %, and the key settled up to 9 % off (Schlick, Exponential on sim-qvga). */
+static uint64_t tick_for_gain(uint32_t own_ps, int32_t gain_q8)
 {
-    int64_t x64 = -(((int64_t)gain_q8 * LOG2E_Q8) >> 8); /* log2 of the factor, 1/256 */
-    if (x64 >= 40 * 256)
+    int64_t x = -(((int64_t)gain_q8 * LOG2E_Q16) >> 8); /* log2 of the factor, 1/65536 */
+    if (x >= 40 * 65536)
         return 0u; /* overflows 32 bits */
-    if (x64 < -48 * 256)
+    if (x < -48 * 65536)
         return 0u;                                /* below 1 ps */
-    uint32_t biased = (uint32_t)(x64 + 48 * 256); /* 0..88*256-1: no shift of a negative value */
-    int32_t n = (int32_t)(biased >> 8) - 48;      /* floor of x64 / 256: -48..39 */
-    uint32_t f = biased & 255u, i = f >> 4, r = f & 15u;
-    uint32_t frac = exp2_q15[i] + (((uint32_t)(exp2_q15[i + 1] - exp2_q15[i]) * r) >> 4);
-    uint64_t t = (uint64_t)own_ps * frac;        /* Q15 */
-    t = n >= 15 ? t << (n - 15) : t >> (15 - n); /* shifts 0..24 and 1..63 */
-    return t > UINT32_MAX ? 0u : (uint32_t)t;
+    uint32_t biased = (uint32_t)(x + 48 * 65536); /* 0..88*65536-1: no shift of a negative value */
+    int32_t n = (int32_t)(biased >> 16) - 48;     /* floor of x / 65536: -48..39 */
+    uint32_t f = biased & 0xffffu, i = f >> 12, r = f & 0xfffu; /* in 1/256 of log2 a step was 0.27 % */
+    uint32_t frac = exp2_q15[i] + (((uint32_t)(exp2_q15[i + 1] - exp2_q15[i]) * r) >> 12);
+    uint64_t t = (uint64_t)own_ps * frac; /* ps in Q15, below 2^48 */
+    int32_t up = n + 1;                   /* Q15 to Q16, times 2^n: -47..40 */
+    if (up > 0 && t > (UINT64_MAX >> up))
+        return 0u;
+    t = up >= 0 ? t << up : t >> -up;
+    return t >> 48 || t < 65536u ? 0u : t;
+}
+
+/* The tick's whole picoseconds and fraction, as a LUT view carries them. */
+static uint64_t ticks_ps_at(uint32_t ticks, uint64_t tick_q16)
+{
+    return wdr_ticks_ps(ticks, (uint32_t)(tick_q16 >> 16), (uint16_t)(tick_q16 & 0xffffu));
 }
 
 static uint32_t min_step_ticks(const wdr_lut_view *lut)
@@ -67,11 +79,18 @@ static uint32_t min_step_ticks(const wdr_lut_view *lut)
     return best;
 }
 
-static bool tick_allowed(const wdr_fw *fw, uint32_t tick_ps)
+/* Which limit a tick breaks: the DAC's rate (a step shorter than WDR_FW_DAC_MIN_UPDATE_PS), the
+ * longest integration, or none (WDR_EXPO_HELD_*). A tick of 0 (out of tick_for_gain's range) breaks
+ * the integration when it was to be longer, else the rate. */
+static uint8_t tick_breaks(const wdr_fw *fw, uint64_t tick_q16, bool longer)
 {
-    uint64_t step_ps = (uint64_t)fw->expo_min_step_ticks * tick_ps;
-    uint64_t t_int_ns = (uint64_t)fw->lut.h.t_integration_ticks * tick_ps / 1000u;
-    return tick_ps && step_ps >= WDR_FW_DAC_MIN_UPDATE_PS && t_int_ns <= WDR_FW_MAX_INTEGRATION_NS;
+    if (!tick_q16)
+        return longer ? WDR_EXPO_HELD_INTEGRATION : WDR_EXPO_HELD_DAC_RATE;
+    if (ticks_ps_at(fw->expo_min_step_ticks, tick_q16) < WDR_FW_DAC_MIN_UPDATE_PS)
+        return WDR_EXPO_HELD_DAC_RATE;
+    if (ticks_ps_at(fw->lut.h.t_integration_ticks, tick_q16) / 1000u > WDR_FW_MAX_INTEGRATION_NS)
+        return WDR_EXPO_HELD_INTEGRATION;
+    return 0u;
 }
 
 /* ln(I / I_key) * 256 of a code in 1/256 (the table interpolated linearly, flat past its last bin). */
@@ -122,7 +141,8 @@ void wdr_fw_expo_reset(wdr_fw *fw)
     fw->expo_gain_q8 = 0;
     fw->expo_last_q8 = 0;
     fw->expo_last_nudge = 0;
-    fw->expo_tick_ps = fw->lut_slot >= 0 ? fw->lut.h.tick_ps : 0;
+    fw->expo_tick_q16 = fw->lut_slot >= 0 ? (uint64_t)fw->lut.h.tick_ps << 16 : 0u;
+    fw->expo_held = 0;
     fw->expo_min_step_ticks = fw->lut_slot >= 0 ? min_step_ticks(&fw->lut) : 0;
     if (fw->expo_has_table)
         expo_limits(fw);
@@ -142,7 +162,8 @@ int wdr_fw_set_exposure(wdr_fw *fw, uint8_t mode)
     if (!fw->expo_auto) {
         fw->expo_gain_q8 = 0;
         fw->expo_last_nudge = 0;
-        fw->expo_tick_ps = fw->lut.h.tick_ps;
+        fw->expo_held = 0;
+        fw->expo_tick_q16 = (uint64_t)fw->lut.h.tick_ps << 16;
     }
     return WDR_OK;
 }
@@ -228,8 +249,8 @@ static bool dark_corrected(const wdr_fw *fw, int32_t excess_q8, int32_t *x)
 /* (tick in force / own tick - 1) * 256: how much longer than calibrated every pixel held its value. */
 static int32_t hold_excess_q8(const wdr_fw *fw)
 {
-    uint32_t own = fw->lut.h.tick_ps ? fw->lut.h.tick_ps : 1u;
-    return (int32_t)(((uint64_t)fw->expo_tick_ps * 256u + own / 2u) / own) - 256;
+    uint64_t own_q16 = (uint64_t)(fw->lut.h.tick_ps ? fw->lut.h.tick_ps : 1u) << 16;
+    return (int32_t)((fw->expo_tick_q16 * 256u + own_q16 / 2u) / own_q16) - 256;
 }
 
 /* The weight, in 1/256, of a value d (1/256 ln) inside a limit in the density band: 1 over
@@ -320,15 +341,14 @@ static int32_t frame_log_average(const wdr_fw *fw)
     return (int32_t)(sum / (int64_t)all);
 }
 
-/* The gain whose tick is the tick in force (ticks are whole picoseconds: at a tick of 18 ps one
- * step is 5.5 %, so the tick played is not the gain's own): tick_for_gain falls as the gain rises,
- * so bisect. */
-static int32_t gain_of_tick(uint32_t own_ps, uint32_t tick_ps, int32_t near_q8)
+/* The gain whose tick is the tick in force (the tick's 1/65536 ps and tick_for_gain's table
+ * interpolation may part it from the gain's own): tick_for_gain falls as the gain rises, so bisect. */
+static int32_t gain_of_tick(uint32_t own_ps, uint64_t tick_q16, int32_t near_q8)
 {
-    int32_t lo = near_q8 - 1024, hi = near_q8 + 1024; /* a whole-ps tick is within 0.5 % of 1 ps */
+    int32_t lo = near_q8 - 1024, hi = near_q8 + 1024;
     while (hi - lo > 1) {
         int32_t mid = lo + (hi - lo) / 2;
-        if (tick_for_gain(own_ps, mid) >= tick_ps)
+        if (tick_for_gain(own_ps, mid) >= tick_q16)
             lo = mid;
         else
             hi = mid;
@@ -361,15 +381,18 @@ void wdr_fw_expo_frame_end(wdr_fw *fw, bool complete)
         return;
     int32_t error = frame_log_average(fw); /* ln(L_avg / key) at the tick in force */
     fw->expo_last_q8 = error;
-    int32_t played = gain_of_tick(fw->lut.h.tick_ps, fw->expo_tick_ps, fw->expo_gain_q8);
+    int32_t played = gain_of_tick(fw->lut.h.tick_ps, fw->expo_tick_q16, fw->expo_gain_q8);
     int32_t step = wdr_fw_expo_step(played + error - fw->expo_gain_q8, &fw->expo_last_nudge);
     /* Near the DAC's rate or the longest integration, halve the step until it fits: the tick
-     * then stops within 1/256 of the limit. */
-    for (int tries = 0; tries < 9 && step; tries++, step /= 2) {
-        uint32_t tick = tick_for_gain(fw->lut.h.tick_ps, fw->expo_gain_q8 + step);
-        if (tick_allowed(fw, tick)) {
+     * then stops within 1/256 of the limit, and STATUS says which limit holds the key short of
+     * the scene (a LUT with short steps cannot play fast enough for a bright scene). */
+    const bool longer = step < 0; /* a darker scene: a longer tick */
+    fw->expo_held = step ? tick_breaks(fw, tick_for_gain(fw->lut.h.tick_ps, fw->expo_gain_q8 + step), longer) : 0u;
+    for (; step; step /= 2) { /* at most 32 halvings; the gap to a limit halves every frame */
+        uint64_t tick = tick_for_gain(fw->lut.h.tick_ps, fw->expo_gain_q8 + step);
+        if (!tick_breaks(fw, tick, longer)) {
             fw->expo_gain_q8 += step;
-            fw->expo_tick_ps = tick;
+            fw->expo_tick_q16 = tick;
             return;
         }
     }

@@ -20,7 +20,7 @@ static uint32_t ns_to_ticks(const wdr_lut_view *lut, uint64_t ns)
 
 static uint32_t ticks_to_ns(const wdr_lut_view *lut, uint32_t ticks)
 {
-    uint64_t ns = (uint64_t)ticks * lut->h.tick_ps / 1000u;
+    uint64_t ns = wdr_lut_ticks_ps(lut, ticks) / 1000u;
     return ns > UINT32_MAX ? UINT32_MAX : (uint32_t)ns;
 }
 
@@ -47,9 +47,10 @@ int wdr_fw_set_integration(wdr_fw *fw, uint32_t ns)
 static void prepare_play(wdr_fw *fw)
 {
     fw->play = fw->lut;
-    if (fw->expo_auto)
-        fw->play.h.tick_ps = fw->expo_tick_ps;
-    else if (fw->integration_ns)
+    if (fw->expo_auto) {
+        fw->play.h.tick_ps = (uint32_t)(fw->expo_tick_q16 >> 16);
+        fw->play.tick_frac_q16 = (uint16_t)(fw->expo_tick_q16 & 0xffffu);
+    } else if (fw->integration_ns)
         fw->play.h.t_integration_ticks = ns_to_ticks(&fw->lut, fw->integration_ns);
     wdr_fw_expo_frame_start(fw);
 }

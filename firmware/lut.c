@@ -97,9 +97,20 @@ static int entries_check(const wdr_lut_view *lut)
     return prev_t < lut->h.t_integration_ticks ? WDR_OK : WDR_E_INVAL;
 }
 
+uint64_t wdr_ticks_ps(uint32_t ticks, uint32_t tick_ps, uint16_t tick_frac_q16)
+{
+    return (uint64_t)ticks * tick_ps + (((uint64_t)ticks * tick_frac_q16) >> 16);
+}
+
+uint64_t wdr_lut_ticks_ps(const wdr_lut_view *lut, uint32_t ticks)
+{
+    return wdr_ticks_ps(ticks, lut->h.tick_ps, lut->tick_frac_q16);
+}
+
 int wdr_lut_parse(const void *buf, size_t len, wdr_lut_view *out)
 {
     const uint8_t *p = buf;
+    out->tick_frac_q16 = 0;
     if (len < WDR_LUT_HEADER_SIZE)
         return WDR_E_TRUNCATED;
     header_unpack(p, &out->h);

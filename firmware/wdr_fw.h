@@ -82,7 +82,8 @@ typedef struct wdr_fw {
     int32_t expo_gain_q8;         /* ln(own tick / tick in force) * 256: the scene against the LUT's key */
     int32_t expo_last_q8;         /* last frame's measured ln(L_avg / key) * 256, at the tick then in force */
     int8_t expo_last_nudge;       /* the sign of the last frame's 1/256 gap, which a halved step leaves */
-    uint32_t expo_tick_ps;        /* tick the next frame plays */
+    uint64_t expo_tick_q16;       /* tick the next frame plays, in 1/65536 ps */
+    uint8_t expo_held;            /* WDR_EXPO_HELD_*: the limit the last step ran into, or 0 */
     uint32_t expo_min_step_ticks; /* shortest DAC step of the active LUT, in its ticks */
     uint32_t expo_hist[WDR_FW_EXPO_HIST]; /* the frame's corrected codes, code >> expo_hist_shift */
     uint8_t expo_hist_shift;      /* so that the table's codes fit the histogram */

@@ -93,6 +93,9 @@ enum wdr_status {
     WDR_ST_BAD_IMAGE = 21     /* image structure (header, trailer, sizes) out of range */
 };
 
+/* STATUS exposure_flags (1.1): the limit that holds auto exposure's key short of the scene. */
+enum wdr_expo_held { WDR_EXPO_HELD_DAC_RATE = 2, WDR_EXPO_HELD_INTEGRATION = 4 };
+
 enum wdr_table_kind { WDR_KIND_LUT = 1, WDR_KIND_CAL = 2, WDR_KIND_FW = 3 /* STATUS upload_kind only */ };
 
 typedef struct wdr_proto_header {
@@ -204,7 +207,9 @@ typedef struct wdr_status_report {
     uint32_t rx_bad_crc;        /* frames dropped for a bad payload CRC */
     /* 1.1: exposure */
     uint8_t exposure_auto;      /* 1: auto exposure on */
-    uint8_t exposure_flags;     /* bit 0: the active LUT has an exposure table */
+    uint8_t exposure_flags;     /* bit 0: the active LUT has an exposure table; bit 1 (WDR_EXPO_HELD_DAC_RATE):
+                                 * the key is held short of a brighter scene by the DAC's rate; bit 2
+                                 * (WDR_EXPO_HELD_INTEGRATION): short of a darker one by the longest integration */
     int32_t key_gain_q8;        /* ln(scene log-average / LUT's key) * 256 in force: the tick is the LUT's / e^(gain/256) */
     uint32_t tick_ps;           /* DAC tick in force */
     int32_t last_error_q8;      /* last frame's measured ln(L_avg / key) * 256, before the correction */

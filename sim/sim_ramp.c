@@ -127,7 +127,7 @@ int sim_table_from_lut(const wdr_sim *s, const wdr_lut_view *lut, sim_ramp_table
     int n = count_steps(lut);
     if (n <= 0 || n > SIM_MAX_NODES)
         return WDR_E_INVAL;
-    double tick = lut->h.tick_ps * 1e-12;
+    double tick = (lut->h.tick_ps + lut->tick_frac_q16 / 65536.0) * 1e-12; /* auto exposure's fraction */
     out->node = malloc((size_t)n * sizeof *out->node);
     if (!out->node)
         return WDR_E_NOMEM;

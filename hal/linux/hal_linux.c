@@ -324,7 +324,7 @@ static void *ramp_main(void *arg)
 {
     const wdr_lut_view *lut = arg;
     uint64_t t0 = mono_ns();
-    double ns_per_tick = lut->h.tick_ps / 1000.0;
+    double ns_per_tick = (lut->h.tick_ps + lut->tick_frac_q16 / 65536.0) / 1000.0;
     for (uint32_t i = 0; i < lut->h.entry_count && !atomic_load(&L.ramp_abort); i++) {
         uint32_t t;
         uint16_t code;

@@ -213,7 +213,7 @@ int hal_ramp_start(const wdr_lut_view *lut)
         return WDR_E_BUSY;
     if (lut->h.dac_bits != MPS2_DAC_BITS)
         return WDR_E_GEOMETRY;
-    hal.ramp_deadline = hal_time_ns() + (uint64_t)lut->h.t_integration_ticks * lut->h.tick_ps / 1000u;
+    hal.ramp_deadline = hal_time_ns() + wdr_lut_ticks_ps(lut, lut->h.t_integration_ticks) / 1000u;
     hal.ramp_playing = true;
     return WDR_OK;
 }

@@ -209,7 +209,7 @@ int hal_ramp_start(const wdr_lut_view *lut)
     if (wdr_sim_set_lut(B.sensor, lut) != WDR_OK)
         return WDR_E_INVAL;
     hal_sim_hand_light_apply(); /* what a person set before this frame */
-    uint64_t t_int_ns = (uint64_t)lut->h.t_integration_ticks * lut->h.tick_ps / 1000u;
+    uint64_t t_int_ns = wdr_lut_ticks_ps(lut, lut->h.t_integration_ticks) / 1000u;
     B.exposed = 0;
     B.converted = 0;
     B.ramp_done_at = B.now_ns + t_int_ns;

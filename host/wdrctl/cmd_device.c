@@ -327,6 +327,14 @@ static const char *upload_name(uint8_t kind)
     return kind == WDR_KIND_LUT ? "LUT" : kind == WDR_KIND_CAL ? "calibration" : "none";
 }
 
+/* The limit that holds auto exposure's key short of the scene, or NULL. */
+static const char *exposure_held(const wdr_status_report *s)
+{
+    if (s->exposure_flags & WDR_EXPO_HELD_DAC_RATE)
+        return "dac_rate";
+    return s->exposure_flags & WDR_EXPO_HELD_INTEGRATION ? "longest_integration" : NULL;
+}
+
 static void print_status_text(const wdr_status_report *s)
 {
     printf("state:         %s\n", s->state < 4 ? state_names[s->state] : "?");
@@ -339,6 +347,10 @@ static void print_status_text(const wdr_status_report *s)
     printf("exposure:      %s%s, key x%.4g (gain %+.3f ln), tick %u ps, last error %+.3f ln\n",
            s->exposure_auto ? "auto" : "fixed", s->exposure_flags & 1 ? "" : " (LUT without exposure table)",
            exp(s->key_gain_q8 / 256.0), s->key_gain_q8 / 256.0, s->tick_ps, s->last_error_q8 / 256.0);
+    if (exposure_held(s))
+        printf("exposure held: by the %s: the scene is %s than this LUT can be exposed for\n",
+               s->exposure_flags & WDR_EXPO_HELD_DAC_RATE ? "DAC's rate (its shortest step)" : "longest integration",
+               s->exposure_flags & WDR_EXPO_HELD_DAC_RATE ? "brighter" : "darker");
 }
 
 static void add_slot(cJSON *o, const char *name, uint8_t slot, uint32_t seq, uint32_t crc)
@@ -367,6 +379,10 @@ static void print_status_json(const wdr_status_report *s)
     cJSON_AddNumberToObject(o, "rx_bad_crc", s->rx_bad_crc);
     cJSON_AddStringToObject(o, "exposure", s->exposure_auto ? "auto" : "fixed");
     cJSON_AddBoolToObject(o, "exposure_table", s->exposure_flags & 1);
+    if (exposure_held(s))
+        cJSON_AddStringToObject(o, "exposure_held", exposure_held(s));
+    else
+        cJSON_AddNullToObject(o, "exposure_held");
     cJSON_AddNumberToObject(o, "key_scale", exp(s->key_gain_q8 / 256.0));
     cJSON_AddNumberToObject(o, "tick_ps", s->tick_ps);
     cJSON_AddNumberToObject(o, "last_error_ln", s->last_error_q8 / 256.0);

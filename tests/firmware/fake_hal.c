@@ -225,7 +225,7 @@ int hal_ramp_start(const wdr_lut_view *lut)
     if (lut->h.dac_bits != FB_DAC_BITS)
         return WDR_E_GEOMETRY;
     fb.ramp_ticks = lut->h.t_integration_ticks;
-    fb.ramp_end = fb.now + lut->h.t_integration_ticks * (uint64_t)lut->h.tick_ps / 1000u;
+    fb.ramp_end = fb.now + wdr_lut_ticks_ps(lut, lut->h.t_integration_ticks) / 1000u;
     fb.ramp_playing = 1;
     return WDR_OK;
 }
