@@ -79,7 +79,17 @@ typedef struct outcome {
     double truth_a, truth_dark_a, settled_a, error, worst_late;
     double below, above; /* fractions past the floor and the ceiling at the settled exposure */
     int settle;          /* frames until the key stays within TOLERANCE; FRAMES + 1: never */
+    unsigned held;       /* the last frame's STATUS exposure_flags, WDR_EXPO_HELD_* bits */
+    double estimate;     /* the firmware's measured ln(L_avg / key) less the truth's, settled frames' mean */
 } outcome;
+
+/* The limit STATUS says holds the key short of the scene. */
+static const char *held_name(unsigned flags)
+{
+    if (flags & WDR_EXPO_HELD_DAC_RATE)
+        return "DAC rate";
+    return flags & WDR_EXPO_HELD_INTEGRATION ? "integration" : "-";
+}
 
 /* An environment knob, or its default: read once, so a NULL never reaches a library call. */
 static const char *env_or(const char *name, const char *fallback)
@@ -193,7 +203,7 @@ static int run_scene(const char *board_name, const scene_def *d, unsigned long l
     frame = calloc((size_t)n, sizeof *frame);
     if (!frame || wdr_client_request(rig.c, WDR_CMD_SET_EXPOSURE, &on, 1) != WDR_OK)
         goto stop;
-    double key[FRAMES], settled = 0;
+    double key[FRAMES], settled = 0, estimate = 0;
     printf("%s scene, chip seed %llu: truth %.4g A (%.4g A with the dark current)\nframe | key in force A | error %% | "
            "tick ps | measured ln(L_avg / key) | integration ns\n",
            d->name, seed, o->truth_a, o->truth_dark_a);
@@ -204,8 +214,15 @@ static int run_scene(const char *board_name, const scene_def *d, unsigned long l
         key[k] = key_a * exp(st.key_gain_q8 / 256.0);
         printf("%5d | %14.5g | %+7.2f | %u | %+.4f | %u\n", k + 1, key[k], 100 * (key[k] / o->truth_a - 1), st.tick_ps,
                st.last_error_q8 / 256.0, st.integration_ns);
-        settled += k >= SETTLED_FROM ? key[k] / (FRAMES - SETTLED_FROM) : 0;
+        /* the frame was played at the key before this STATUS's update */
+        double played = k ? key[k - 1] : key_a;
+        if (k >= SETTLED_FROM) {
+            settled += key[k] / (FRAMES - SETTLED_FROM);
+            estimate += (st.last_error_q8 / 256.0 - log(o->truth_a / played)) / (FRAMES - SETTLED_FROM);
+        }
+        o->held = st.exposure_flags & (WDR_EXPO_HELD_DAC_RATE | WDR_EXPO_HELD_INTEGRATION);
     }
+    o->estimate = estimate;
     const char *dump_dir = env_or("WDR_EXPO_DUMP", NULL);
     if (dump_dir) { /* the last frame's codes and the table, for a look by hand */
         char dump[256];
@@ -286,7 +303,7 @@ int main(int argc, char **argv)
            "%s\n",
            board_name, op_name(), cal_frames ? "calibrated on the board" : "uncalibrated");
     printf("scene  | seed | true log-average A | settled key A | error %% | worst of frames %d-%d %% | frames to "
-           "settle | past floor %% | past ceiling %% | truth with dark current: error %%\n",
+           "settle | past floor %% | past ceiling %% | truth with dark current: error %% | held by | estimator ln\n",
            SETTLED_FROM + 1, FRAMES);
     for (int s = 0; s < n_seeds; s++)
         for (size_t i = 0; i < N_SCENES; i++) {
@@ -294,11 +311,20 @@ int main(int argc, char **argv)
             if (o->settle < 0)
                 continue; /* not run */
             unsigned long long seed = argc > 2 ? strtoull(argv[2 + s], NULL, 10) : 1;
-            printf("%-6s | %4llu | %18.5g | %13.5g | %+7.2f | %22.2f | %16d | %12.1f | %14.1f | %+.2f\n",
+            printf("%-6s | %4llu | %18.5g | %13.5g | %+7.2f | %22.2f | %16d | %12.1f | %14.1f | %+.2f | %s | %+.3f\n",
                    scenes[i].name, seed, o->truth_a, o->settled_a, 100 * o->error, 100 * o->worst_late, o->settle,
-                   100 * o->below, 100 * o->above, 100 * (o->settled_a / o->truth_dark_a - 1));
+                   100 * o->below, 100 * o->above, 100 * (o->settled_a / o->truth_dark_a - 1), held_name(o->held),
+                   o->estimate);
             double tol = scenes[i].tolerance;
-            if (tol > 0 && (fabs(o->error) >= tol || o->worst_late >= tol || o->settle > SETTLE_MAX)) {
+            if (tol > 0 && o->held) { /* past the board's limits: the key cannot reach it; the board must say
+                                       * so, and know how far off it is */
+                if (fabs(o->estimate) >= log1p(tol)) {
+                    printf("FAIL: %s scene, seed %llu: held by the %s, its measured error is %+.3f ln off the "
+                           "truth's (at most %.3f allowed)\n",
+                           scenes[i].name, seed, held_name(o->held), o->estimate, log1p(tol));
+                    failed = 1;
+                }
+            } else if (tol > 0 && (fabs(o->error) >= tol || o->worst_late >= tol || o->settle > SETTLE_MAX)) {
                 printf("FAIL: %s scene, seed %llu: settled %+.2f %% from the log-average (worst late frame %.2f %%), "
                        "within %.1f %% from frame %d (at most %.1f %% from frame %d allowed)\n",
                        scenes[i].name, seed, 100 * o->error, 100 * o->worst_late, 100 * tol, o->settle, 100 * tol,
