@@ -4,6 +4,7 @@
 #include "ramp.h"
 #include "wdr_err.h"
 #include <math.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -136,6 +137,37 @@ static double ln_on_curve(const double *ln_i, const double *code, int n, double 
     return span > 0 ? ln_i[a] + (code[a] - y) / span * (ln_i[z] - ln_i[a]) : ln_i[a];
 }
 
+/* The least slope, in codes per ln, at which a code still says which current it is. Schlick's
+ * response on sim-qvga holds its darkest 3 ln in about 8 codes (0.8 codes per ln) while a code's
+ * noise there is 1.4 codes: a pixel read anywhere within 2 ln, and at face value those codes put
+ * the key +8 % (step chart) and +14 to +18 % (HDR wedge) off. Flat past the last bin that resolves
+ * 4 codes per ln, the firmware censors them below the floor and continues the density inside it
+ * instead: -1.95 / +1.27 %. At the dark end only: cut at the bright end too, Exponential's
+ * ceiling moved from 8.6 to 2.0 ln and its step chart went from -2.38 to +2.70 %. */
+#define MIN_CODES_PER_LN 4.0
+
+/* Bins k..k+1 resolve their currents: one bin's codes span at most 1 / MIN_CODES_PER_LN ln. */
+static bool bin_resolves(const wdr_lut_exposure *ex, uint32_t k)
+{
+    double drop = (ex->ln_q8[k] - ex->ln_q8[k + 1]) / 256.0;
+    return drop * MIN_CODES_PER_LN <= (double)(1u << ex->code_shift);
+}
+
+/* The table made flat past the last bin that resolves its currents at the dark end: the floor then
+ * lies where the response stops resolving, not at the sensor's i_min. */
+static void flatten_unresolved_dark_end(wdr_lut_exposure *ex)
+{
+    uint32_t ceiling = 0, dark = ex->bins - 1u;
+    while (ceiling + 1u < ex->bins && ex->ln_q8[ceiling + 1u] >= ex->ln_q8[0])
+        ceiling++; /* the ceiling's flat run */
+    while (dark > 0 && ex->ln_q8[dark - 1u] <= ex->ln_q8[ex->bins - 1u])
+        dark--; /* the floor's flat run */
+    while (dark > ceiling + 1u && !bin_resolves(ex, dark - 1u))
+        dark--;
+    for (uint32_t k = dark + 1u; k < ex->bins; k++)
+        ex->ln_q8[k] = ex->ln_q8[dark];
+}
+
 int wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out)
 {
     wdr_ideal_pixel px;
@@ -166,6 +198,7 @@ int wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, dou
         out->droop_q8[k] = droop_q8_at(&px, b, lut, ln_rel + log(key_amp));
     }
     free(ln_i);
+    flatten_unresolved_dark_end(out);
     return WDR_OK;
 }
 
