@@ -146,7 +146,7 @@ static double ln_on_curve(const double *ln_i, const double *code, int n, double 
  * ceiling moved from 8.6 to 2.0 ln and its step chart went from -2.38 to +2.70 %. */
 #define MIN_CODES_PER_LN 4.0
 
-/* Bins k..k+1 resolve their currents: one bin's codes span at most 1 / MIN_CODES_PER_LN ln. */
+/* Bins k..k+1 resolve their currents: over bin k each code spans at most 1 / MIN_CODES_PER_LN ln. */
 static bool bin_resolves(const wdr_lut_exposure *ex, uint32_t k)
 {
     double drop = (ex->ln_q8[k] - ex->ln_q8[k + 1]) / 256.0;
@@ -157,6 +157,8 @@ static bool bin_resolves(const wdr_lut_exposure *ex, uint32_t k)
  * lies where the response stops resolving, not at the sensor's i_min. */
 static void flatten_unresolved_dark_end(wdr_lut_exposure *ex)
 {
+    if (ex->bins < 2u || ex->bins > WDR_LUT_EXPO_MAX_BINS)
+        return; /* no sloped part to cut (the builder makes 64..1024 bins) */
     uint32_t ceiling = 0, dark = ex->bins - 1u;
     while (ceiling + 1u < ex->bins && ex->ln_q8[ceiling + 1u] >= ex->ln_q8[0])
         ceiling++; /* the ceiling's flat run */
