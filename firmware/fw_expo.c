@@ -10,7 +10,9 @@
  * censored, not counted at the limit. Their mean is estimated from their fraction and the density
  * of the scene just inside the limit, continued past it (uniform in ln I, as over a log gradient):
  * a fraction p beyond the limit against q within a BAND that starts GAP inside it spans BAND p / q,
- * so its mean lies half that beyond. The span is capped at WDR_FW_EXPO_TAIL_MAX_Q8, and below the top by the tone map's
+ * so its mean lies half that beyond. Where the LUT says its dark end is linear in current
+ * (WDR_LUT_EXPO_LINEAR_DARK), a short dark tail's span comes from its codes' mean instead
+ * (dark_tail_from_codes). The span is capped at WDR_FW_EXPO_TAIL_MAX_Q8, and below the top by the tone map's
  * guard (1e-9 of the maximum). Then the gain moves by half of the error (damped; wdr_fw_expo_step
  * also says how a key far off and a last 1/256 move), the new tick
  * must keep every DAC step at least WDR_FW_DAC_MIN_UPDATE_PS long and the integration at most
@@ -20,7 +22,6 @@
 
 #define LOG2E_Q8 369       /* 1/ln 2 in 1/256 */
 #define LOG2E_Q16 94548    /* 1/ln 2 in 1/65536: in 1/256 the tick was 0.13 % of the gain off per ln */
-#define EXPO_NOISE_CODES 4 /* codes a pixel at a limit may read past it (noise): censored too */
 #define EXPO_BAND_Q8 256   /* the density beyond a limit is the density over 1 ln inside it, */
 #define EXPO_GAP_Q8 128    /* from 0.5 ln in: noise and mismatch blur which pixels a limit censors
                             * over about that much, and a band that starts at the limit counted
@@ -106,7 +107,7 @@ static int32_t table_q8_fine(const wdr_lut_exposure *ex, int32_t code_q8)
 
 /* The histogram's resolution and the censoring limits, from the table: the floor lies in the bin
  * before the first bin at the table's lowest value (the table reads the floor past it), the
- * ceiling in the bin after the last at its highest; codes from one bin and EXPO_NOISE_CODES
+ * ceiling in the bin after the last at its highest; codes from one bin and WDR_LUT_EXPO_NOISE_CODES
  * before (after) that on are censored. */
 static void expo_limits(wdr_fw *fw)
 {
@@ -122,10 +123,11 @@ static void expo_limits(wdr_fw *fw)
         if (ex->ln_q8[b] >= ex->ln_q8[0])
             last_max = b;
     }
-    int32_t lo_code = first_min > 0 ? (int32_t)((first_min - 1u) << ex->code_shift) - EXPO_NOISE_CODES : 0;
-    int32_t hi_code = (int32_t)((last_max + 1u) << ex->code_shift) + EXPO_NOISE_CODES;
+    int32_t lo_code = WDR_LUT_EXPO_FLOOR_CODE(first_min, ex->code_shift);
+    int32_t hi_code = (int32_t)((last_max + 1u) << ex->code_shift) + WDR_LUT_EXPO_NOISE_CODES;
     lo_code = lo_code < 0 ? 0 : lo_code;
     hi_code = hi_code > lo_code ? lo_code : hi_code;
+    fw->expo_floor_bin = (uint16_t)first_min;
     fw->expo_lo_index = (uint16_t)((uint32_t)lo_code >> hs);
     fw->expo_hi_index = (uint16_t)(((uint32_t)hi_code + (1u << hs) - 1u) >> hs);
     /* a limit's value is the table's half a code before its first censored code, where tally()'s
@@ -193,7 +195,10 @@ void wdr_fw_expo_row(wdr_fw *fw, const uint16_t *codes, uint16_t width)
 typedef struct expo_tally {
     int64_t sum_q8;
     uint32_t seen, below, above;
+    uint32_t past;         /* of below: the codes past the floor (the rest: all dark current) */
+    int64_t past_code_q8;  /* their codes' sum, 1/256 code */
     uint64_t near_lo_q8, near_hi_q8; /* weighted by band_weight_q8 */
+    bool floor_dark;       /* dark current explains the floor's reading at this tick */
     int32_t top_q8;        /* the brightest visible value */
     int32_t lo_q8, hi_q8;  /* the limits' values, dark current out */
 } expo_tally;
@@ -275,7 +280,8 @@ static void tally(const wdr_fw *fw, expo_tally *t)
     const int32_t excess_q8 = hold_excess_q8(fw);
     const int32_t lo_q8 = (int32_t)fw->expo_lo_index << (8u + hs), hi_q8 = (int32_t)fw->expo_hi_index << (8u + hs);
     *t = (expo_tally){.top_q8 = fw->expo_hi_q8, .lo_q8 = fw->expo_lo_q8, .hi_q8 = fw->expo_hi_q8};
-    if (!dark_corrected(fw, excess_q8, &t->lo_q8))
+    t->floor_dark = !dark_corrected(fw, excess_q8, &t->lo_q8);
+    if (t->floor_dark)
         t->lo_q8 = fw->expo_lo_q8 - DARK_MAX_DROP_Q8; /* the floor is dark current at this tick */
     if (!dark_corrected(fw, excess_q8, &t->hi_q8))
         t->hi_q8 = fw->expo_hi_q8 - DARK_MAX_DROP_Q8;
@@ -295,6 +301,8 @@ static void tally(const wdr_fw *fw, expo_tally *t)
         int32_t nearest_q8 = (int32_t)(((uint32_t)(code_q8 > 0 ? code_q8 : 0) + 128u) & ~255u);
         if (nearest_q8 >= lo_q8) {
             t->below += n;
+            t->past += n;
+            t->past_code_q8 += (int64_t)n * code_q8;
             continue;
         }
         if (nearest_q8 < hi_q8) {
@@ -324,6 +332,85 @@ static int32_t tail_span(uint32_t count, uint64_t near_q8, int32_t cap)
     return span < cap ? (int32_t)span : cap;
 }
 
+/* (1 - e^-s) / s in Q16 for s = k / 4 ln, k = 0..32: the mean current, against the floor's, of a
+ * tail uniform in ln I over s below the floor. */
+static const uint16_t uniform_tail_mean_q16[33] = {
+    65535, 57986, 51573, 46105, 41427, 37408, 33942, 30941, 28333, 26057, 24063, 22308, 20758, 19383, 18159, 17065, 16084,
+    15200, 14402, 13678, 13019, 12418, 11867, 11361, 10896, 10466, 10067, 9698,  9354,  9033,  8733,  8453,  8189};
+
+/* The span (1/256 ln) of a uniform tail whose mean current is r_q16 of the floor's, at most cap. */
+static int32_t span_of_mean(int64_t r_q16, int32_t cap)
+{
+    if (r_q16 >= 65535)
+        return 0;
+    for (uint32_t k = 1; k < 33u; k++) {
+        int32_t hi = uniform_tail_mean_q16[k - 1u], lo = uniform_tail_mean_q16[k];
+        if (r_q16 >= lo) {
+            int32_t s = (int32_t)(k - 1u) * 64 + (int32_t)((hi - r_q16) * 64 / (hi - lo));
+            return s < cap ? s : cap;
+        }
+    }
+    return cap;
+}
+
+/* The dark tail's mean ln(I / key) * 256 from what its codes say. Past the floor a code spans more
+ * than 1/4 ln (ramp_exposure.c cuts the table there) and a code's noise moves it by up to 2 ln, so
+ * no code is read at face value; but every operator's response starts linear in the current
+ * (y ~ L), so the codes' mean says the tail's mean current whatever the noise, and the tail's span
+ * is the one whose currents, uniform in ln I, have that mean. The line is the table's from the
+ * floor's bin to the floor's flat run. Schlick's dark scene on sim-qvga had 27 % of its pixels
+ * past the floor; the density band just inside it read the tail 0.15 ln short (key +9.2 %).
+ * False when the table has no sloped bin past the floor's or dark current explains the floor. */
+static bool dark_tail_from_codes(const wdr_fw *fw, const expo_tally *t, int32_t cap, int32_t *mean_q8, int32_t *tail_q8)
+{
+    const wdr_lut_exposure *ex = &fw->expo;
+    const uint32_t sh = ex->code_shift;
+    const int32_t excess_q8 = hold_excess_q8(fw);
+    int64_t floor_code_q8 = ((int64_t)fw->expo_lo_index << (8u + fw->expo_hist_shift)) - 128; /* as expo_limits */
+    uint32_t b0 = (uint32_t)(floor_code_q8 > 0 ? floor_code_q8 : 0) >> (8u + sh), b1 = fw->expo_floor_bin;
+    if (!(ex->flags & WDR_LUT_EXPO_LINEAR_DARK) || !t->past || t->floor_dark || b1 <= b0 || b1 >= ex->bins)
+        return false;
+    const int32_t l0 = ex->ln_q8[b0];
+    int64_t d_q16 = 0; /* the dark current the longer hold adds, against e^l0 */
+    if ((ex->flags & WDR_LUT_EXPO_DARK) && excess_q8) {
+        if (ex->dark_ln_q8 >= l0)
+            return false;
+        d_q16 = (int64_t)exp_neg_q16(ex->dark_ln_q8 - l0) * excess_q8 / 256;
+    }
+    /* the current at code c against e^l0: 1 - (c - c0) * drop / span, in Q16 */
+    const int64_t drop_q16 = 65536 - exp_neg_q16(ex->ln_q8[b1] - l0), codes_q8 = (int64_t)((b1 - b0) << sh) << 8;
+    const int64_t c0_q8 = (int64_t)(b0 << sh) << 8, mean_code_q8 = t->past_code_q8 / t->past;
+    int64_t floor_q16 = 65536 - (floor_code_q8 - c0_q8) * drop_q16 / codes_q8 - d_q16;
+    int64_t mean_q16 = 65536 - (mean_code_q8 - c0_q8) * drop_q16 / codes_q8 - d_q16;
+    if (floor_q16 < 256 || floor_q16 > 0x7fffffff)
+        return false;
+    int64_t r_q16 = mean_q16 > 0 ? mean_q16 * 65536 / floor_q16 : 0;
+    *tail_q8 = span_of_mean(r_q16, cap);
+    *mean_q8 = l0 + ln_q8_of_q16((uint32_t)floor_q16) - *tail_q8 / 2;
+    return true;
+}
+
+#ifndef EXPO_CODES_UP_TO_Q8
+#define EXPO_CODES_UP_TO_Q8 704
+#endif
+#ifndef EXPO_CODES_WIDTH_Q8
+#define EXPO_CODES_WIDTH_Q8 128
+#endif
+/* The codes' mean pins a short tail; a long one it barely moves. Its currents then all sit within
+ * a code or two of the zero-light code, and the span grows as 1 / the mean current: at 7 ln, 0.15
+ * code of curvature in the response moved it 0.5 ln (Schlick's HDR wedge, key -5 %). So the tail
+ * is the codes' up to EXPO_CODES_UP_TO_Q8, the density band's past that plus EXPO_CODES_WIDTH_Q8,
+ * and a blend of the two between. */
+static int32_t blend_tails(int32_t from_codes, int32_t from_band, int32_t span)
+{
+    int32_t over = span - EXPO_CODES_UP_TO_Q8;
+    if (over <= 0)
+        return from_codes;
+    if (over >= EXPO_CODES_WIDTH_Q8)
+        return from_band;
+    return from_codes + (int32_t)((int64_t)(from_band - from_codes) * over / EXPO_CODES_WIDTH_Q8);
+}
+
 /* ln(L_avg / key) * 256 of the frame at the tick in force. */
 static int32_t frame_log_average(const wdr_fw *fw)
 {
@@ -336,8 +423,10 @@ static int32_t frame_log_average(const wdr_fw *fw)
     int32_t top = t.above ? t.hi_q8 + hi_span : t.top_q8;
     int32_t guard = t.lo_q8 - (top - EXPO_GUARD_Q8); /* room above the tone map's guard */
     int32_t lo_cap = guard < WDR_FW_EXPO_TAIL_MAX_Q8 ? (guard > 0 ? guard : 0) : WDR_FW_EXPO_TAIL_MAX_Q8;
-    int32_t lo_span = tail_span(t.below, t.near_lo_q8, lo_cap);
-    int64_t sum = t.sum_q8 + (int64_t)t.below * (t.lo_q8 - lo_span / 2) + (int64_t)t.above * (t.hi_q8 + hi_span / 2);
+    int32_t lo_mean = t.lo_q8 - tail_span(t.below, t.near_lo_q8, lo_cap) / 2, from_codes, span;
+    if (t.below == t.past && dark_tail_from_codes(fw, &t, lo_cap, &from_codes, &span))
+        lo_mean = blend_tails(from_codes, lo_mean, span);
+    int64_t sum = t.sum_q8 + (int64_t)t.below * lo_mean + (int64_t)t.above * (t.hi_q8 + hi_span / 2);
     return (int32_t)(sum / (int64_t)all);
 }
 

@@ -90,6 +90,7 @@ typedef struct wdr_fw {
     uint16_t expo_lo_index;       /* histogram entries from here up: at or below the floor */
     uint16_t expo_hi_index;       /* entries below here: at or above the ceiling */
     int32_t expo_lo_q8, expo_hi_q8; /* ln(I / I_key) * 256 at those two limits */
+    uint16_t expo_floor_bin;      /* the table's first bin at its lowest value (the floor's flat run) */
 
     /* Firmware images (fw_update.c): the image flash, the upload into the slot not running,
      * and what the bootloader passed to this boot */

@@ -99,7 +99,16 @@ void wdr_lut_encode(wdr_lut_header *h, const uint32_t *t_ticks, const uint16_t *
 #define WDR_LUT_EXPO_MAX_BINS 1024u    /* the most: a power of two from 64 to this */
 #define WDR_LUT_EXPO_DROOP 1u /* flags bit 0: a droop array follows ln_q8 */
 #define WDR_LUT_EXPO_DARK 2u  /* flags bit 1: the dark current follows the arrays (i16 ln q8, u16 0) */
-#define WDR_LUT_EXPO_FLAGS (WDR_LUT_EXPO_DROOP | WDR_LUT_EXPO_DARK)
+/* flags bit 2: past the floor the nominal pixel's code stays on the line through the floor's bin
+ * and the floor's flat run down to no light (the table was cut where codes stop resolving, not
+ * where pixels stop crossing): the firmware reads the dark tail from the mean of its codes */
+#define WDR_LUT_EXPO_LINEAR_DARK 4u
+#define WDR_LUT_EXPO_FLAGS (WDR_LUT_EXPO_DROOP | WDR_LUT_EXPO_DARK | WDR_LUT_EXPO_LINEAR_DARK)
+/* Codes a pixel at a limit may read past it (noise): the firmware censors them too. The floor's
+ * code is WDR_LUT_EXPO_FLOOR_CODE(first bin of the floor's flat run, code_shift) less half a code. */
+#define WDR_LUT_EXPO_NOISE_CODES 4
+#define WDR_LUT_EXPO_FLOOR_CODE(first_min, shift)                                                                      \
+    ((first_min) > 0 ? (int32_t)(((uint32_t)(first_min)-1u) << (shift)) - WDR_LUT_EXPO_NOISE_CODES : 0)
 #define WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, flags)                                                                      \
     (8u + 2u * (uint32_t)(bins) * (1u + ((flags)&1u)) + 4u * (((flags) >> 1) & 1u) + 4u)
 #define WDR_LUT_EXPO_BLOCK_SIZE(bins) WDR_LUT_EXPO_BLOCK_SIZE_FOR(bins, 0u)

@@ -164,10 +164,60 @@ static void flatten_unresolved_dark_end(wdr_lut_exposure *ex)
         ceiling++; /* the ceiling's flat run */
     while (dark > 0 && ex->ln_q8[dark - 1u] <= ex->ln_q8[ex->bins - 1u])
         dark--; /* the floor's flat run */
-    while (dark > ceiling + 1u && !bin_resolves(ex, dark - 1u))
-        dark--;
+    /* from the bin that resolves best, darkward to the first that does not: on sim-vga Schlick's
+     * 2 ln in one bin lay before a last bin of 0.8 ln, and a walk back from the floor stopped there */
+    uint32_t best = ceiling + 1u;
+    for (uint32_t k = ceiling + 1u; k < dark; k++)
+        best = ex->ln_q8[k] - ex->ln_q8[k + 1u] < ex->ln_q8[best] - ex->ln_q8[best + 1u] ? k : best;
+    for (uint32_t k = best; k < dark; k++)
+        if (!bin_resolves(ex, k)) {
+            dark = k;
+            break;
+        }
     for (uint32_t k = dark + 1u; k < ex->bins; k++)
         ex->ln_q8[k] = ex->ln_q8[dark];
+}
+
+/* The first bin at the table's lowest value: the floor's flat run, as fw_expo.c finds it. */
+static uint32_t floor_bin(const wdr_lut_exposure *ex)
+{
+    uint32_t first_min = 0;
+    for (uint32_t k = 1; k < ex->bins; k++)
+        first_min = ex->ln_q8[k] < ex->ln_q8[first_min] ? k : first_min;
+    return first_min;
+}
+
+/* The most a code of the nominal pixel past the floor may lie off the firmware's line (fw_expo.c:
+ * dark_tail_from_codes) for the firmware to read the dark tail from the codes' mean. The tail's
+ * span moves by about (its span)^2 times the offset over the floor's codes to no light (14 codes on
+ * sim-qvga's Schlick ramp): a quarter code is 0.1 ln on a tail of 2.5 ln. Reinhard's pixels past its floor
+ * bend off the line by a code or more (its floor is where they stop crossing in time). */
+#define LINEAR_DARK_TOLERANCE_CODES 0.25
+#define LINEAR_DARK_POINTS 32
+
+/* Past the floor, the nominal code is on the line through the floor's bin and the first bin of
+ * the floor's flat run, in current, down to no light: what WDR_LUT_EXPO_LINEAR_DARK promises. */
+static bool dark_end_is_linear(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut,
+                               const wdr_lut_exposure *ex, double key_amp, double *worst_codes)
+{
+    uint32_t b1 = floor_bin(ex);
+    double floor_code = WDR_LUT_EXPO_FLOOR_CODE(b1, ex->code_shift) - 0.5;
+    uint32_t b0 = floor_code > 0 ? (uint32_t)floor_code >> ex->code_shift : 0;
+    *worst_codes = INFINITY;
+    if (b1 <= b0)
+        return false;
+    double l0 = ex->ln_q8[b0] / 256.0, l1 = ex->ln_q8[b1] / 256.0, drop = 1 - exp(l1 - l0);
+    double c0 = (double)(b0 << ex->code_shift), codes = (double)((b1 - b0) << ex->code_shift);
+    if (!(drop > 0))
+        return false;
+    *worst_codes = 0;
+    for (int k = 0; k <= LINEAR_DARK_POINTS; k++) {
+        double frac = (double)k / LINEAR_DARK_POINTS; /* of the current at bin b0 */
+        double line = c0 + (1 - frac) * codes / drop;
+        double code = ideal_code(px, b, lut, frac * key_amp * exp(l0));
+        *worst_codes = fmax(*worst_codes, fabs(code - line));
+    }
+    return *worst_codes <= LINEAR_DARK_TOLERANCE_CODES;
 }
 
 int wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out)
@@ -201,6 +251,9 @@ int wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, dou
     }
     free(ln_i);
     flatten_unresolved_dark_end(out);
+    double worst;
+    if (dark_end_is_linear(&px, b, lut, out, key_amp, &worst))
+        out->flags |= WDR_LUT_EXPO_LINEAR_DARK;
     return WDR_OK;
 }
 

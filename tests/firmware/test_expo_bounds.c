@@ -80,16 +80,19 @@ static void largest_gain_steps_stay_defined(void **state)
     assert_true(top > 4096); /* past one step: the loop tried gains where the old shift overflowed */
 }
 
-/* The dark-current field (flags bit 1): read back as written, with or without the droop array;
+/* The dark-current field (flags bit 1): read back as written, with or without the droop array and
+ * the linear-dark bit;
  * a reserved half not 0, a value past +-WDR_LUT_EXPO_MAX_LN_Q8 or an unknown flag bit refused. */
 static void dark_field_round_trips_and_is_checked(void **state)
 {
     (void)state;
     static uint8_t block[WDR_LUT_EXPO_BLOCK_SIZE_FOR(WDR_LUT_EXPO_BINS, WDR_LUT_EXPO_FLAGS)];
     static wdr_lut_exposure ex, back;
-    for (uint8_t flags = WDR_LUT_EXPO_DARK; flags <= WDR_LUT_EXPO_FLAGS; flags++) {
+    for (unsigned flags = WDR_LUT_EXPO_DARK; flags <= WDR_LUT_EXPO_FLAGS; flags++) {
+        if (!(flags & WDR_LUT_EXPO_DARK))
+            continue;
         memset(&ex, 0, sizeof ex);
-        ex.bins = WDR_LUT_EXPO_BINS, ex.code_shift = 6, ex.flags = flags, ex.dark_ln_q8 = -2237;
+        ex.bins = WDR_LUT_EXPO_BINS, ex.code_shift = 6, ex.flags = (uint8_t)flags, ex.dark_ln_q8 = -2237;
         for (uint32_t b = 0; b < WDR_LUT_EXPO_BINS; b++)
             ex.ln_q8[b] = (int16_t)(1000 - 30 * (int)b), ex.droop_q8[b] = (int16_t)(flags & 1u ? 127 - (int)b : 0);
         size_t len = WDR_LUT_EXPO_BLOCK_SIZE_FOR(ex.bins, flags);
@@ -108,9 +111,9 @@ static void dark_field_round_trips_and_is_checked(void **state)
         wdr_put_u32(block + len - 4, wdr_crc32(0, block, len - 4));
         assert_int_equal(wdr_lut_exposure_parse(block, len, &back), WDR_E_INVAL);
     }
-    ex.flags = 4u;                       /* no such bit */
+    ex.flags = 8u;                       /* no such bit */
     wdr_lut_exposure_encode(&ex, block); /* the encoder drops it: write it by hand */
-    block[7] = 4u;
+    block[7] = 8u;
     wdr_put_u32(block + WDR_LUT_EXPO_BLOCK_SIZE_FOR(ex.bins, 0) - 4,
                 wdr_crc32(0, block, WDR_LUT_EXPO_BLOCK_SIZE_FOR(ex.bins, 0) - 4));
     assert_int_equal(wdr_lut_exposure_parse(block, WDR_LUT_EXPO_BLOCK_SIZE_FOR(ex.bins, 0), &back), WDR_E_INVAL);
