@@ -186,17 +186,20 @@ int main(int argc, char **argv)
 {
     cm_setup s = {.plant_defects = 1};
     const char *only = NULL; /* "MODEL:OP": only the runs whose model and operator match */
+    int only_seed = 0;       /* and, if not 0, only that chip seed (at every mismatch) */
     for (int i = 1; i < argc; i++)
         if (!strcmp(argv[i], "--only") && i + 1 < argc)
             only = argv[++i];
+        else if (!strcmp(argv[i], "--seed") && i + 1 < argc && sscanf(argv[i + 1], "%d", &only_seed) == 1)
+            i++;
         else if (sscanf(argv[i], "%dx%d", &s.width, &s.height) != 2)
-            return fprintf(stderr, "usage: test_cal_matrix [WxH] [--only MODEL:OP]\n"), 64;
+            return fprintf(stderr, "usage: test_cal_matrix [WxH] [--only MODEL:OP] [--seed N]\n"), 64;
     cm_print_header(stdout);
     for (size_t i = 0; i < sizeof subset / sizeof subset[0]; i++) {
         const run *r = &subset[i];
         char name[64];
         snprintf(name, sizeof name, "%s:%s", cm_model_name(r->model), r->op);
-        if (only && strcmp(only, name))
+        if ((only && strcmp(only, name)) || (only_seed > 0 && r->seed != (uint64_t)only_seed))
             continue;
         int forms[CM_MAX_FORMS] = {CM_FORM_AUTO}, n[CM_MAX_FORMS] = {0}, nf = 1;
         if (r->all_forms)
