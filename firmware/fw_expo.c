@@ -358,8 +358,9 @@ static int32_t span_of_mean(int64_t r_q16, int32_t cap)
  * no code is read at face value; but every operator's response starts linear in the current
  * (y ~ L), so the codes' mean says the tail's mean current whatever the noise, and the tail's span
  * is the one whose currents, uniform in ln I, have that mean. The line is the table's from the
- * floor's bin to the floor's flat run. Schlick's dark scene on sim-qvga had 27 % of its pixels
- * past the floor; the density band just inside it read the tail 0.15 ln short (key +9.2 %).
+ * floor's bin to the floor's flat run. Schlick's dark scene on sim-qvga has 39-44 % of its
+ * pixels past the floor, and the density band just inside it read that tail short (key +9.2 %,
+ * SPEC.md's exposure section).
  * False when the table has no sloped bin past the floor's or dark current explains the floor. */
 static bool dark_tail_from_codes(const wdr_fw *fw, const expo_tally *t, int32_t cap, int32_t *mean_q8, int32_t *tail_q8)
 {
