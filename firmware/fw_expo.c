@@ -116,13 +116,8 @@ static void expo_limits(wdr_fw *fw)
     while ((span >> hs) > WDR_FW_EXPO_HIST)
         hs++;
     fw->expo_hist_shift = (uint8_t)hs;
-    uint32_t first_min = 0, last_max = 0;
-    for (uint32_t b = 1; b < ex->bins; b++) {
-        if (ex->ln_q8[b] < ex->ln_q8[first_min])
-            first_min = b;
-        if (ex->ln_q8[b] >= ex->ln_q8[0])
-            last_max = b;
-    }
+    uint32_t first_min, last_max;
+    wdr_lut_exposure_flat_ends(ex, &first_min, &last_max);
     int32_t lo_code = WDR_LUT_EXPO_FLOOR_CODE(first_min, ex->code_shift);
     int32_t hi_code = (int32_t)((last_max + 1u) << ex->code_shift) + WDR_LUT_EXPO_NOISE_CODES;
     lo_code = lo_code < 0 ? 0 : lo_code;

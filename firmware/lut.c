@@ -166,6 +166,18 @@ int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out)
     return WDR_OK;
 }
 
+void wdr_lut_exposure_flat_ends(const wdr_lut_exposure *ex, uint32_t *floor_bin, uint32_t *ceiling_bin)
+{
+    uint32_t first_min = 0, last_max = 0;
+    for (uint32_t b = 1; b < ex->bins; b++) {
+        if (ex->ln_q8[b] < ex->ln_q8[first_min])
+            first_min = b;
+        if (ex->ln_q8[b] >= ex->ln_q8[0])
+            last_max = b;
+    }
+    *floor_bin = first_min, *ceiling_bin = last_max;
+}
+
 void wdr_lut_exposure_encode(const wdr_lut_exposure *in, uint8_t *out)
 {
     uint8_t flags = in->flags & WDR_LUT_EXPO_FLAGS;

@@ -136,6 +136,11 @@ typedef struct wdr_lut_exposure {
  *                     code_shift above 10, or an ln_q8 outside +-WDR_LUT_EXPO_MAX_LN_Q8 */
 int wdr_lut_exposure_parse(const void *buf, size_t len, wdr_lut_exposure *out);
 
+/* The table's flat ends, as the firmware reads them and the host writes them: *floor_bin the first
+ * bin at the table's lowest value (the floor lies in the bin before it), *ceiling_bin the last at
+ * its highest (the ceiling lies in the bin after it); the sloped part is between them. */
+void wdr_lut_exposure_flat_ends(const wdr_lut_exposure *ex, uint32_t *floor_bin, uint32_t *ceiling_bin);
+
 /* Write the block (WDR_LUT_EXPO_BLOCK_SIZE_FOR(in->bins, in->flags) bytes, CRC computed here). */
 void wdr_lut_exposure_encode(const wdr_lut_exposure *in, uint8_t *out);
 

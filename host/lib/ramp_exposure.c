@@ -178,12 +178,11 @@ static void flatten_unresolved_dark_end(wdr_lut_exposure *ex)
         ex->ln_q8[k] = ex->ln_q8[dark];
 }
 
-/* The first bin at the table's lowest value: the floor's flat run, as fw_expo.c finds it. */
+/* The first bin at the table's lowest value: the floor's flat run, as the firmware finds it. */
 static uint32_t floor_bin(const wdr_lut_exposure *ex)
 {
-    uint32_t first_min = 0;
-    for (uint32_t k = 1; k < ex->bins; k++)
-        first_min = ex->ln_q8[k] < ex->ln_q8[first_min] ? k : first_min;
+    uint32_t first_min, last_max;
+    wdr_lut_exposure_flat_ends(ex, &first_min, &last_max);
     return first_min;
 }
 

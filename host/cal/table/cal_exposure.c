@@ -47,16 +47,11 @@ static int key_offset_q8(const wdr_board *b, const wdr_lut_view *lut, const wdr_
 }
 
 /* The table's sloped part: bins after the last at its highest value (the ceiling) and before the
- * first at its lowest (the floor), as fw_expo.c's expo_limits finds them. */
+ * first at its lowest (the floor), as the firmware finds them. */
 static void sloped_part(const wdr_lut_exposure *ex, uint32_t *first, uint32_t *last)
 {
-    uint32_t first_min = 0, last_max = 0;
-    for (uint32_t k = 1; k < ex->bins; k++) {
-        if (ex->ln_q8[k] < ex->ln_q8[first_min])
-            first_min = k;
-        if (ex->ln_q8[k] >= ex->ln_q8[0])
-            last_max = k;
-    }
+    uint32_t first_min, last_max;
+    wdr_lut_exposure_flat_ends(ex, &first_min, &last_max);
     *first = last_max + 1u;
     *last = first_min > 0 ? first_min - 1u : 0;
 }
