@@ -220,8 +220,9 @@ static int fit(chip *c, int model, double lo, double hi, wdr_cal_result *res, ch
  * frames (the converters a user's chip has), at the judging currents calibrate takes, one frame
  * each (temporal noise off); the nearest when no form meets the target. The other models keep their
  * own form. */
-static void auto_form(chip *q, const wdr_cal_result *res, int model, double lo, double hi, int *form, int *n)
+static void auto_form(chip *q, const wdr_cal_result *res, double lo, double hi, cm_cell *cell)
 {
+    int model = cell->model, *form = &cell->form, *n = &cell->n_coeffs;
     wdr_cal_config d;
     wdr_cal_config_defaults(&d, model);
     *form = d.form, *n = d.n_coeffs;
@@ -238,9 +239,12 @@ static void auto_form(chip *q, const wdr_cal_result *res, int model, double lo, 
         return;
     }
     for (int t = 0; getenv("CM_TRIALS") && t < nt; t++) /* CM_TRIALS=1: every form's figures, on stderr */
-        fprintf(stderr, "cal_matrix: form auto: %d/%d %s: worst %.3g %% at %.3g A; at %.3g A %.3g %% against %.3g %% (fit %.3g %%)\n",
-                tr[t].form, tr[t].n_coeffs, tr[t].meets ? "meets" : "misses", tr[t].worst_pct, tr[t].worst_at,
-                tr[t].excess_at, tr[t].table_pct, tr[t].allowed_pct, tr[t].model_pct);
+        fprintf(stderr,
+                "cal_matrix: form auto: %s seed %llu %gx: %d/%d %s: worst %.3g %% at %.3g A; at %.3g A %.3g %% "
+                "against %.3g %% (fit %.3g %%)\n",
+                cell->op, (unsigned long long)cell->seed, cell->mismatch, tr[t].form, tr[t].n_coeffs,
+                tr[t].meets ? "meets" : "misses", tr[t].worst_pct, tr[t].worst_at, tr[t].excess_at, tr[t].table_pct,
+                tr[t].allowed_pct, tr[t].model_pct);
     if (k < 0) /* none met: the nearest, as calibrate keeps it */
         k = wdr_form_nearest(tr, nt);
     *form = tr[k].form, *n = tr[k].n_coeffs;
@@ -278,6 +282,9 @@ static int judge(chip *c, const wdr_cal_result *res, int form, int n, const doub
         if (wdr_eval_point_measure(res, &tab, &c->src, x[k], &eo, &p))
             return free(tb), s->refused = 1, snprintf(s->reason, CM_REASON, "evaluation capture failed"), 1;
         pct[k] = p.table.sd_pct, model_pct[k] = p.model.sd_pct, floor[k] = p.floor_pct;
+        if (getenv("CM_PER_X")) /* CM_PER_X=1: the table's and the fit's error at every judged current */
+            fprintf(stderr, "cal_matrix: form %d/%d, %s: at %.3g A table %.3f %%, fit %.3f %%\n", form, n,
+                    c->converters ? "12-bit" : "analog", x[k], pct[k], model_pct[k]);
         if (!(pct[k] <= s->worst_pct)) /* a NaN is the worst */
             s->worst_pct = pct[k], s->worst_at = x[k];
     }
@@ -338,7 +345,7 @@ int cm_run_chip(const cm_setup *s, int model, const char *op, uint64_t seed, dou
         cell->model = model, cell->op = op, cell->seed = seed, cell->mismatch = mismatch;
         cell->form = forms[f], cell->n_coeffs = n_coeffs[f], cell->asked_auto = forms[f] == CM_FORM_AUTO;
         if (cell->asked_auto)
-            auto_form(&c[1], fitted[1] ? &res[1] : NULL, model, lo, hi, &cell->form, &cell->n_coeffs);
+            auto_form(&c[1], fitted[1] ? &res[1] : NULL, lo, hi, cell);
         int same = -1; /* auto's choice already built: the same cell */
         for (int g = 0; g < f && cell->asked_auto; g++)
             if (!cells[g].asked_auto && cells[g].form == cell->form && cells[g].n_coeffs == cell->n_coeffs)
