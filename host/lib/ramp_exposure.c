@@ -181,7 +181,7 @@ static void flatten_unresolved_dark_end(wdr_lut_exposure *ex)
 /* The first bin at the table's lowest value: the floor's flat run, as the firmware finds it. */
 static uint32_t floor_bin(const wdr_lut_exposure *ex)
 {
-    uint32_t first_min, last_max;
+    uint32_t first_min = 0, last_max = 0;
     wdr_lut_exposure_flat_ends(ex, &first_min, &last_max);
     return first_min;
 }
@@ -203,7 +203,7 @@ static bool dark_end_is_linear(const wdr_ideal_pixel *px, const wdr_board *b, co
     double floor_code = WDR_LUT_EXPO_FLOOR_CODE(b1, ex->code_shift) - 0.5;
     uint32_t b0 = floor_code > 0 ? (uint32_t)floor_code >> ex->code_shift : 0;
     *worst_codes = INFINITY;
-    if (b1 <= b0)
+    if (b1 <= b0 || b1 >= ex->bins)
         return false;
     double l0 = ex->ln_q8[b0] / 256.0, l1 = ex->ln_q8[b1] / 256.0, drop = 1 - exp(l1 - l0);
     double c0 = (double)(b0 << ex->code_shift), codes = (double)((b1 - b0) << ex->code_shift);
