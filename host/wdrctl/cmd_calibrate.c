@@ -51,6 +51,20 @@ static int upload_lut_with_margin(device_src *d, const char *path, const wdr_boa
     return rc;
 }
 
+/* The chip's mean corrected code at each calibration level (malloc'd; NULL: the nominal's are used). */
+static double *level_codes(const cal_run *r)
+{
+    const wdr_cal_levels *lv = &r->levels;
+    double *codes = malloc(sizeof *codes * (size_t)lv->n);
+    for (int k = 0; codes && k < lv->n; k++)
+        if (wdr_cal_mean_corrected_code(r->table, r->table_len, lv->frames + (size_t)k * lv->width * lv->height,
+                                        &codes[k]) != WDR_OK) {
+            free(codes);
+            return NULL;
+        }
+    return codes;
+}
+
 /* The LUT stored again, its exposure block anchored at the calibration's levels (cal_exposure.h):
  * the table came from the board's designed pixel, the corrected codes are this chip's median
  * pixel's (sim-qvga seed 5: 0.02-0.12 ln apart below 1e-13 A, auto exposure 2.3 % low on the HDR
@@ -68,7 +82,10 @@ static int anchor_exposure(device_src *d, const char *path, const wdr_board *b, 
     free(buf);
     if (rc)
         return wdrctl_fail(EX_DATAERR, "calibrate: %s: %s", path, err);
-    rc = wdr_cal_exposure_anchor(ext, ext_len, b, &r->res.nominal, r->cfg.out_scale, r->levels.amps, r->levels.n, &a);
+    double *codes = level_codes(r);
+    rc = wdr_cal_exposure_anchor(ext, ext_len, b, &r->res.nominal, r->cfg.out_scale, r->levels.amps, r->levels.n,
+                                 codes, &a);
+    free(codes);
     if (rc == WDR_OK && a.n > 0 && (rc = wdr_cal_board_upload_lut(&d->board, ext, ext_len)) != WDR_OK) {
         free(ext);
         return wdrctl_conn_fail(&d->conn, rc);
@@ -82,6 +99,9 @@ static int anchor_exposure(device_src *d, const char *path, const wdr_board *b, 
                 "wdrctl: %s: exposure table anchored at %d calibration levels (the chip's median codes; largest move "
                 "%.3f ln, at %.3g A)\n",
                 path, a.n, a.worst_ln, a.worst_at_a);
+    if (a.dark_line)
+        fprintf(stderr, "wdrctl: %s: its line past the floor fitted to the levels there (no light %+.2f codes from the "
+                "design's)\n", path, a.dark_moved_codes);
     return EX_OK;
 }
 

@@ -5,7 +5,9 @@
  * each level's median code about s high; after it, at every calibration level on the table's
  * sloped part, within 1.5/256 ln (the table's rounding), and halfway between levels (in ln I)
  * within 3/256 ln and a quarter of the error summed over those points before. The floor and the ceiling stay in the
- * same bins, the flat ends stay flat, and a LUT without an exposure block is left byte for byte. */
+ * same bins, the flat ends stay flat, and a LUT without an exposure block is left byte for byte.
+ * Schlick (WDR_LUT_EXPO_LINEAR_DARK): the line past the floor that the firmware reads the dark tail
+ * from follows the chip's mean codes at the levels past the floor (check_dark_line). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -60,14 +62,14 @@ static double code_of(const wdr_lut_exposure *ex, double ln_rel)
 
 /* A chip of the board's design (the exposure table as built) whose median pixel answers a current x
  * with the code the design gives x e^s(x). */
-static void rig_open(rig *r, offset_fn s)
+static void rig_open_op(rig *r, offset_fn s, const char *op)
 {
     char err[512];
     memset(r, 0, sizeof *r);
     wdr_board_defaults(&r->b);
     r->b.width = 160, r->b.height = 120;
     r->key = 0.18 * r->b.i_center_a;
-    assert_int_equal(wdr_ramp_board_lut(&r->b, "reinhard", &r->lut, &r->len, NULL, err, sizeof err), WDR_OK);
+    assert_int_equal(wdr_ramp_board_lut(&r->b, op, &r->lut, &r->len, NULL, err, sizeof err), WDR_OK);
     assert_int_equal(wdr_ramp_lut_append_exposure(&r->lut, &r->len, &r->b, r->key), WDR_OK);
     wdr_lut_exposure *ex = malloc(sizeof *ex);
     assert_non_null(ex);
@@ -83,6 +85,11 @@ static void rig_open(rig *r, offset_fn s)
     assert_int_equal(wdr_pchip_init(&r->nom.curve, lx, y, KNOTS), WDR_OK);
     for (int k = 0; k < LEVELS; k++)
         r->amps[k] = 1e-14 * pow(1e6, k / (LEVELS - 1.0));
+}
+
+static void rig_open(rig *r, offset_fn s)
+{
+    rig_open_op(r, s, "reinhard");
 }
 
 static void rig_close(rig *r)
@@ -141,7 +148,7 @@ static void check_anchored(offset_fn s, const char *what)
     wdr_lut_exposure *before = malloc(sizeof *before), *after = malloc(sizeof *after);
     block(&r, before);
     wdr_cal_exposure_anchors a;
-    assert_int_equal(wdr_cal_exposure_anchor(r.lut, r.len, &r.b, &r.nom, 1.0, r.amps, LEVELS, &a), WDR_OK);
+    assert_int_equal(wdr_cal_exposure_anchor(r.lut, r.len, &r.b, &r.nom, 1.0, r.amps, LEVELS, NULL, &a), WDR_OK);
     block(&r, after);
     print_message("%s: %d levels anchored, largest move %.3f ln at %.3g A\n", what, a.n, a.worst_ln, a.worst_at_a);
     assert_true(a.n >= LEVELS - 3);
@@ -205,7 +212,7 @@ static void lut_without_block_is_left_alone(void **state)
     uint8_t *copy = malloc(len);
     memcpy(copy, plain, len);
     wdr_cal_exposure_anchors a;
-    assert_int_equal(wdr_cal_exposure_anchor(plain, len, &r.b, &r.nom, 1.0, r.amps, LEVELS, &a), WDR_OK);
+    assert_int_equal(wdr_cal_exposure_anchor(plain, len, &r.b, &r.nom, 1.0, r.amps, LEVELS, NULL, &a), WDR_OK);
     assert_int_equal(a.n, 0);
     assert_memory_equal(plain, copy, len);
     free(plain);
@@ -213,12 +220,114 @@ static void lut_without_block_is_left_alone(void **state)
     rig_close(&r);
 }
 
+/* The line past the floor as fw_expo.c's dark_tail_from_codes reads it: bin b0 of the floor's code
+ * and b1, the floor's flat run; the code of a current e^ln_rel (ln against the key). */
+static double line_code(const wdr_lut_exposure *ex, double ln_rel)
+{
+    uint32_t b1, last_max;
+    limits(ex, &b1, &last_max);
+    double floor_code = WDR_LUT_EXPO_FLOOR_CODE(b1, ex->code_shift) - 0.5;
+    uint32_t b0 = (uint32_t)floor_code >> ex->code_shift;
+    double l0 = ex->ln_q8[b0] / 256.0, drop = 1 - exp(ex->ln_q8[b1] / 256.0 - l0);
+    return (double)(b0 << ex->code_shift) + (1 - exp(ln_rel - l0)) * (double)((b1 - b0) << ex->code_shift) / drop;
+}
+
+/* A Schlick chip (its dark end linear in current: WDR_LUT_EXPO_LINEAR_DARK) whose mean codes past
+ * the floor lie off the design's line: by `off` at no light, falling linearly in current to 0 at
+ * the floor's bin (turned: the line can follow it), or by `off` at every level past the floor
+ * (shifted: a line turned about b0 can only split it). After anchoring, turned: the line reads
+ * each of those levels' codes within 0.05 code (before: `off` (1 - I / I_b0)) and its end moved by
+ * `off` within 0.05; shifted: the summed error at least halved. Both: the floor stays in its bin
+ * and the sloped part is what the sloped anchors alone make it. */
+static double no_offset(double x)
+{
+    (void)x;
+    return 0;
+}
+
+static void check_dark_line(double off, int turned)
+{
+    rig r;
+    rig_open_op(&r, no_offset, "schlick");
+    wdr_lut_exposure *before = malloc(sizeof *before), *after = malloc(sizeof *after),
+                     *sloped_only = malloc(sizeof *sloped_only);
+    block(&r, before);
+    assert_true(before->flags & WDR_LUT_EXPO_LINEAR_DARK);
+    uint32_t f0, l0, f1, l1;
+    limits(before, &f0, &l0);
+    double floor_code = WDR_LUT_EXPO_FLOOR_CODE(f0, before->code_shift) - 0.5, codes[LEVELS];
+    int past = 0;
+    uint8_t *copy = malloc(r.len);
+    memcpy(copy, r.lut, r.len);
+    wdr_cal_exposure_anchors a;
+    assert_int_equal(wdr_cal_exposure_anchor(copy, r.len, &r.b, &r.nom, 1.0, r.amps, LEVELS, NULL, &a), WDR_OK);
+    uint8_t *keep = r.lut;
+    r.lut = copy;
+    block(&r, sloped_only);
+    r.lut = keep;
+    free(copy);
+    for (int k = 0; k < LEVELS; k++) {
+        double ln_rel = log(r.amps[k] / r.key), c = line_code(sloped_only, ln_rel);
+        codes[k] = wdr_nominal_eval(&r.nom, r.amps[k]);
+        if (codes[k] > floor_code && c > floor_code) /* past the floor: the chip's codes are the line's + off */
+            codes[k] =
+                c + off * (turned ? 1 - exp(ln_rel -
+                                            sloped_only->ln_q8[(uint32_t)floor_code >> sloped_only->code_shift] / 256.0)
+                                  : 1),
+            past++;
+    }
+    assert_true(past >= 2);
+    assert_int_equal(wdr_cal_exposure_anchor(r.lut, r.len, &r.b, &r.nom, 1.0, r.amps, LEVELS, codes, &a), WDR_OK);
+    block(&r, after);
+    print_message("schlick, codes past the floor %+.2f off the line (%s): %d levels there, its end moved %+.3f codes\n",
+                  off, turned ? "turned" : "shifted", past, a.dark_moved_codes);
+    assert_true(a.dark_line);
+    double sum0 = 0, sum1 = 0;
+    for (int k = 0; k < LEVELS; k++) {
+        double ln_rel = log(r.amps[k] / r.key);
+        if (!(codes[k] > floor_code))
+            continue;
+        double c0 = line_code(sloped_only, ln_rel), c1 = line_code(after, ln_rel);
+        print_message("  level %.3g A: line %.3f -> %.3f, chip %.3f\n", r.amps[k], c0, c1, codes[k]);
+        sum0 += fabs(c0 - codes[k]), sum1 += fabs(c1 - codes[k]);
+        assert_true(!turned || fabs(c1 - codes[k]) <= 0.05);
+    }
+    assert_true(sum0 > 0.5 * fabs(off));
+    assert_true(sum1 <= 0.5 * sum0);
+    assert_true(!turned || fabs(a.dark_moved_codes - off) <= 0.05);
+    limits(after, &f1, &l1);
+    assert_int_equal(f0, f1);
+    assert_int_equal(l0, l1);
+    for (uint32_t k = 0; k < f1; k++)
+        assert_int_equal(after->ln_q8[k], sloped_only->ln_q8[k]);
+    for (uint32_t k = f1; k < after->bins; k++)
+        assert_int_equal(after->ln_q8[k], after->ln_q8[f1]);
+    free(before);
+    free(after);
+    free(sloped_only);
+    rig_close(&r);
+}
+
+static void dark_line_turns_to_the_chip(void **state)
+{
+    (void)state;
+    check_dark_line(0.4, 1);
+    check_dark_line(-0.3, 1);
+}
+
+static void dark_line_splits_a_shift(void **state)
+{
+    (void)state;
+    check_dark_line(0.4, 0);
+    check_dark_line(-0.3, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(dark_end_offset_is_taken_out),
-        cmocka_unit_test(flat_offset_is_taken_out),
-        cmocka_unit_test(lut_without_block_is_left_alone),
+        cmocka_unit_test(dark_end_offset_is_taken_out),    cmocka_unit_test(flat_offset_is_taken_out),
+        cmocka_unit_test(lut_without_block_is_left_alone), cmocka_unit_test(dark_line_turns_to_the_chip),
+        cmocka_unit_test(dark_line_splits_a_shift),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

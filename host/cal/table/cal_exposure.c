@@ -1,5 +1,6 @@
 /* The LUT's exposure table anchored at the calibration's levels (see cal_exposure.h). */
 #include "cal_exposure.h"
+#include "correct.h"
 #include "ramp.h"
 #include "wdr_err.h"
 #include "wdr_lut.h"
@@ -109,8 +110,81 @@ static void move_table(wdr_lut_exposure *ex, const double *code, const double *m
     }
 }
 
+/* The line past the floor that fw_expo.c's dark_tail_from_codes reads: through bin b0 (the floor's
+ * code's bin, left where the sloped part's anchors put it) and bin b1 (the first of the floor's
+ * flat run), current linear in code. It is turned about b0 to the calibration's levels past the
+ * floor, least squares in code over (current, code) pairs (ln in the table's units, code): ln[b1]
+ * and the flat run after it get the value of the line that fits. The tail's span moves about
+ * 0.7 ln per code of that line's end (sim-qvga Schlick), and the design's line is the board's
+ * nominal pixel's: at 1e-13 A the chips' median codes of seeds 3, 5 and 6 lay 0.75 code apart,
+ * and the dark scene's key settled at +3.81 / +0.62 / +5.04 %. False where no level lies past the
+ * floor or the fit would not stay below bin b1 - 1's value. */
+static bool anchor_dark_line(wdr_lut_exposure *ex, const double *ln_at, const double *code, int n, double *moved)
+{
+    uint32_t b1, last_max;
+    wdr_lut_exposure_flat_ends(ex, &b1, &last_max);
+    double floor_code = WDR_LUT_EXPO_FLOOR_CODE(b1, ex->code_shift) - 0.5;
+    uint32_t b0 = floor_code > 0 ? (uint32_t)floor_code >> ex->code_shift : 0;
+    if (!(ex->flags & WDR_LUT_EXPO_LINEAR_DARK) || b1 <= b0 || b1 >= ex->bins)
+        return false;
+    double c0 = (double)(b0 << ex->code_shift), codes = (double)((b1 - b0) << ex->code_shift);
+    double l0 = ex->ln_q8[b0] / 256.0, drop = 1 - exp(ex->ln_q8[b1] / 256.0 - l0), saa = 0, sad = 0;
+    for (int k = 0; k < n; k++) {
+        if (!(code[k] > floor_code))
+            continue;                                /* not past the floor: the sloped part's */
+        double a = (1 - exp(ln_at[k] - l0)) * codes; /* code - c0 = a / drop on the line */
+        saa += a * a, sad += a * (code[k] - c0);
+    }
+    double u = saa > 0 ? sad / saa : 0; /* 1 / drop */
+    if (!(u > 1) || !(drop > 0))
+        return false;
+    int16_t v = (int16_t)lround(fmax(256 * (l0 + log1p(-1 / u)), -WDR_LUT_EXPO_MAX_LN_Q8));
+    if (v >= ex->ln_q8[b1 - 1u])
+        return false;
+    *moved = codes * (u - 1 / drop); /* the line's end at no light, codes */
+    for (uint32_t k = b1; k < ex->bins; k++)
+        ex->ln_q8[k] = v;
+    return true;
+}
+
+int wdr_cal_mean_corrected_code(const uint8_t *table, size_t len, const float *frame, double *mean)
+{
+    wdr_cal_view v;
+    int rc = wdr_cal_parse(table, len, &v);
+    float *row = rc ? NULL : malloc(sizeof *row * v.h.width);
+    if (!rc && !row)
+        rc = WDR_E_NOMEM;
+    double sum = 0;
+    for (int r = 0; !rc && r < v.h.height; r++) {
+        rc = wdr_correct_row_f32(&v, r, frame + (size_t)r * v.h.width, row);
+        for (int i = 0; !rc && i < v.h.width; i++)
+            sum += row[i];
+    }
+    free(row);
+    if (!rc)
+        *mean = sum / ((double)v.h.width * v.h.height);
+    return rc;
+}
+
+/* The levels' (ln in the table's units, code) pairs for anchor_dark_line: the codes given, else the
+ * nominal's (as anchors()). ln_at and code have room for n. */
+static bool dark_line(wdr_lut_exposure *ex, const wdr_board *b, const wdr_nominal *nom, double scale,
+                      const double *amps, int n, double off, const double *level_codes, double *ln_at, double *code,
+                      double *moved)
+{
+    int m = 0;
+    for (int k = 0; k < n; k++) {
+        if (!(amps[k] > 0))
+            continue;
+        ln_at[m] = log(amps[k] / b->i_center_a) + off / 256;
+        code[m++] = level_codes ? level_codes[k] : wdr_nominal_eval(nom, amps[k]) * scale;
+    }
+    return anchor_dark_line(ex, ln_at, code, m, moved);
+}
+
 int wdr_cal_exposure_anchor(uint8_t *bytes, size_t len, const wdr_board *b, const wdr_nominal *nominal,
-                            double code_scale, const double *amps, int n, wdr_cal_exposure_anchors *out)
+                            double code_scale, const double *amps, int n, const double *level_codes,
+                            wdr_cal_exposure_anchors *out)
 {
     wdr_lut_view lut;
     memset(out, 0, sizeof *out);
@@ -129,11 +203,13 @@ int wdr_cal_exposure_anchor(uint8_t *bytes, size_t len, const wdr_board *b, cons
     int m = rc ? 0 : anchors(ex, b, nominal, code_scale, amps, n, off, buf, buf + n, buf + 2 * n);
     if (m > 0) {
         move_table(ex, buf, buf + n, m);
-        wdr_lut_exposure_encode(ex, bytes + end);
         out->n = m;
         for (int k = 0; k < m; k++)
             if (fabs(buf[n + k]) / 256 > out->worst_ln)
                 out->worst_ln = fabs(buf[n + k]) / 256, out->worst_at_a = buf[2 * n + k];
+        out->dark_line =
+            dark_line(ex, b, nominal, code_scale, amps, n, off, level_codes, buf, buf + n, &out->dark_moved_codes);
+        wdr_lut_exposure_encode(ex, bytes + end);
     }
     free(ex);
     free(buf);
