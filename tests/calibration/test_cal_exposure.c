@@ -133,12 +133,14 @@ static void limits(const wdr_lut_exposure *ex, uint32_t *first_min, uint32_t *la
     }
 }
 
-/* On the sloped part: the code lies between the ceiling's and the floor's bins. */
+/* On the sloped part the firmware reads: the code lies between the ceiling's bin and the floor's
+ * code (WDR_LUT_EXPO_FLOOR_CODE less half a code: codes from there on are censored). */
 static int sloped(const wdr_lut_exposure *ex, double code)
 {
     uint32_t fmin_, lmax;
     limits(ex, &fmin_, &lmax);
-    return code >= (double)((lmax + 1u) << ex->code_shift) && code <= (double)((fmin_ - 1u) << ex->code_shift);
+    return code >= (double)((lmax + 1u) << ex->code_shift) &&
+           code <= WDR_LUT_EXPO_FLOOR_CODE(fmin_, ex->code_shift) - 0.5;
 }
 
 static void check_anchored(offset_fn s, const char *what)

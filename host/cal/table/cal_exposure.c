@@ -78,7 +78,12 @@ static int anchors(const wdr_lut_exposure *ex, const wdr_board *b, const wdr_nom
 {
     uint32_t first, last;
     sloped_part(ex, &first, &last);
-    double lo = (double)(first << ex->code_shift), hi = (double)(last << ex->code_shift);
+    /* up to the floor's code, which the firmware censors from (expo_limits): a level between it and
+     * the flat run is read by the line past the floor, not the table. Up to the flat run, sim-qvga
+     * seed 4's 4.64e-13 A level at code 3101.6 moved the table 0.03 ln, held to the floor and past
+     * it: Schlick's HDR wedge settled +3.07 % (-0.78 % now) */
+    double lo = (double)(first << ex->code_shift),
+           hi = fmin((double)(last << ex->code_shift), WDR_LUT_EXPO_FLOOR_CODE(last + 1u, ex->code_shift) - 0.5);
     int m = 0;
     for (int k = 0; k < n; k++) {
         double c = amps[k] > 0 ? wdr_nominal_eval(nom, amps[k]) * scale : NAN;
