@@ -220,13 +220,18 @@ int probe(const char *path, where &at)
     return bad;
 }
 
+bool window_in_limits(long w, long h)
+{
+    return w > 0 && h > 0 && w <= WDR_EXR_MAX_SIDE && h <= WDR_EXR_MAX_SIDE && w * h <= WDR_EXR_MAX_PIXELS;
+}
+
 int probe_bounds(const char *path, where &at, exr_storage_t storage, const exr_attr_box2i_t &dw, int32_t chunks)
 {
     char why[240];
     if (storage != EXR_STORAGE_SCANLINE && storage != EXR_STORAGE_TILED)
         return at.fail(WDR_E_UNSUPPORTED, "deep data is not supported");
     long w = (long)dw.max.x - dw.min.x + 1, h = (long)dw.max.y - dw.min.y + 1, bytes = file_size(path);
-    if (w <= 0 || h <= 0 || w > WDR_EXR_MAX_SIDE || h > WDR_EXR_MAX_SIDE || w * h > WDR_EXR_MAX_PIXELS) {
+    if (!window_in_limits(w, h)) {
         snprintf(why, sizeof why, "data window %ldx%ld outside the limits (sides 1..%d, at most %ld pixels)", w, h,
                  WDR_EXR_MAX_SIDE, WDR_EXR_MAX_PIXELS);
         return at.fail(WDR_E_INVAL, why);
@@ -283,8 +288,19 @@ int read_part0(const char *path, where &at, float **lum, int *w, int *h)
     Imf::MultiPartInputFile file(path);
     const Imf::Header &hdr = file.header(0);
     const IMATH_NAMESPACE::Box2i dw = hdr.dataWindow();
-    *w = dw.max.x - dw.min.x + 1;
-    *h = dw.max.y - dw.min.y + 1;
+    // The C++ library parses the header again and need not agree with the C API's reading that
+    // probe() bounded: a fuzzed file passed the probe and then asked for a 50 GB strip here.
+    const long wl = (long)dw.max.x - dw.min.x + 1, hl = (long)dw.max.y - dw.min.y + 1;
+    if (!window_in_limits(wl, hl)) {
+        char why[240];
+        snprintf(why, sizeof why,
+                 "data window %ldx%ld as the OpenEXR library reads the header, outside the limits (sides 1..%d, at "
+                 "most %ld pixels)",
+                 wl, hl, WDR_EXR_MAX_SIDE, WDR_EXR_MAX_PIXELS);
+        return at.fail(WDR_E_INVAL, why);
+    }
+    *w = (int)wl;
+    *h = (int)hl;
     const char *names[3];
     if ((rc = pick_channels(hdr.channels(), at, names)))
         return rc;
