@@ -512,6 +512,7 @@ static int learn_one(const wdr_cal_result *res, int n, int shifts, int minimax, 
         L.u[k] = 1;
     long idx[SAMPLE_PIXELS];
     memset(b, 0, sizeof *b);
+    b->mean_coeffs[0] = 1; /* function 0 is the mean map */
     L.m = pick_pixels(&L, idx);
     if (L.m < 2 * n) {
         snprintf(err, (size_t)errlen, "shared basis: %d good pixels, need at least %d", L.m, 2 * n);
@@ -615,6 +616,14 @@ static double kernel_basis(const wdr_basis *b, double y, int k)
     float f = t - (float)j;
     const float *p0 = b->table + (long)j * b->n, *p1 = p0 + b->n;
     return p0[k] + f * (p1[k] - p0[k]);
+}
+
+double wdr_cal_basis_value(const wdr_basis *b, const double *c, double y)
+{
+    double v = 0;
+    for (int k = 0; k < b->n; k++)
+        v += c[k] * kernel_basis(b, y, k);
+    return v;
 }
 
 int wdr_cal_basis_coeffs(const wdr_basis *b, const wdr_map_samples *s, double *c)

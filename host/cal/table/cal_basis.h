@@ -30,6 +30,7 @@ typedef struct wdr_basis {
     int shifted;
     double anchor_code, raw_max;
     double u[WDR_BASIS_SAMPLES];
+    double mean_coeffs[WDR_CAL_MAX_COEFFS]; /* the array's mean map in these functions (an unfit pixel's) */
 } wdr_basis;
 
 /* Learn the basis from (a sample of) the array's good pixels: principal components of their
@@ -46,6 +47,24 @@ void wdr_cal_basis_free(wdr_basis *b);
 int wdr_cal_table_basis(const wdr_cal_result *res, wdr_basis *basis, char *err, int errlen);
 int wdr_cal_build_table_with(const wdr_cal_result *res, const wdr_basis *basis, uint32_t sensor_id, int operator_id,
                              uint8_t **out, size_t *out_len, char *err, int errlen);
+
+/* The same span in other functions (cal_basis_condition.c): orthonormal over the table's points,
+ * in codes, with a sample of the array's coefficients uncorrelated. A float fit gives the same
+ * maps; the COMPACT form's int16 coefficients, scaled to each one's range over the array, need
+ * not: the learnt functions nearly cancel where the pixels differ least, and their coefficients
+ * then span 9-13 standard deviations. out->table is malloc'd (free it with wdr_cal_basis_free).
+ * @retval WDR_OK, WDR_E_NOMEM, WDR_E_NUMERIC (too few good pixels, a degenerate span) */
+int wdr_cal_basis_conditioned(const wdr_cal_result *res, const wdr_basis *in, wdr_basis *out);
+
+/* What a COMPACT table's encoding loses: its kernel (wdr_correct_row_f32, as the board computes
+ * it) against the same pixels' float maps over basis (wdr_cal_basis_coeffs, wdr_cal_basis_value),
+ * the worst over the 64 log-spaced currents of the rms over sample rows' good pixels, in % of ln x
+ * (code differences times the contrast weight, the slope floored at 1 code per ln). INFINITY when
+ * the table does not parse. */
+double wdr_cal_compact_departure(const wdr_cal_result *res, const wdr_basis *basis, const uint8_t *table, size_t len);
+
+/* sum_k c[k] B_k(y): a pixel's float map over basis at raw code y (as the BASIS kernel reads it). */
+double wdr_cal_basis_value(const wdr_basis *b, const double *c, double y);
 
 /* A SHIFTED basis: the pixel's code shift (-64..63) from its samples, and its samples moved by it
  * as the kernel moves its codes (min(y + shift, raw_max)); 0 and unchanged otherwise. */
