@@ -56,6 +56,14 @@ int wdr_cal_build_table_with(const wdr_cal_result *res, const wdr_basis *basis, 
  * @retval WDR_OK, WDR_E_NOMEM, WDR_E_NUMERIC (too few good pixels, a degenerate span) */
 int wdr_cal_basis_conditioned(const wdr_cal_result *res, const wdr_basis *in, wdr_basis *out);
 
+/* The same functions held at their value past the codes the array's good pixels read at the
+ * calibrated currents (cal_basis_reach.c): the table's pad, which only the smoothness penalty
+ * holds, is where conditioned functions grow most (70x on sim-qvga Schlick), and the COMPACT
+ * kernel's fixed-point shift is set by the largest value at any point. Maps change only at codes
+ * no pixel read in calibration. out->table is malloc'd.
+ * @retval WDR_OK, WDR_E_NOMEM, WDR_E_NUMERIC (no pixel reads a finite code) */
+int wdr_cal_basis_held(const wdr_cal_result *res, const wdr_basis *in, wdr_basis *out);
+
 /* What a COMPACT table's encoding loses: its kernel (wdr_correct_row_f32, as the board computes
  * it) against the same pixels' float maps over basis (wdr_cal_basis_coeffs, wdr_cal_basis_value),
  * the worst over the 64 log-spaced currents of the rms over sample rows' good pixels, in % of ln x

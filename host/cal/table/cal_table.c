@@ -226,33 +226,45 @@ static int build_with(const wdr_cal_result *res, const wdr_basis *shared_basis, 
     return WDR_OK;
 }
 
-/* COMPACT and SHIFTED: the table from the learnt functions and from the same span conditioned
- * (wdr_cal_basis_conditioned), the one whose kernel departs less from the fit kept
- * (wdr_cal_compact_departure). Conditioning took Reinhard's seed 1 on sim-qvga from 1.268 % to
- * 0.544 % analog (the float basis-4's figure); it lost on Schlick there (3.24 -> 4.71 %), whose
- * conditioned functions grow 70x in the table's pad and cost the kernel's fixed-point points 1
- * bit (tests/calibration/README.md). */
+/* Build over candidate, judged against ref's float maps: replaces *out when it departs less than
+ * *best (wdr_cal_compact_departure). */
+static void try_candidate(const wdr_cal_result *res, const wdr_basis *candidate, const wdr_basis *ref,
+                          uint32_t sensor_id, int operator_id, uint8_t **out, size_t *out_len, double *best)
+{
+    uint8_t *other;
+    size_t other_len;
+    char ignored[8];
+    if (build_with(res, candidate, sensor_id, operator_id, &other, &other_len, ignored, sizeof ignored) != WDR_OK)
+        return;
+    double d = wdr_cal_compact_departure(res, ref, other, other_len);
+    if (d < *best) {
+        free(*out);
+        *out = other, *out_len = other_len, *best = d;
+    } else
+        free(other);
+}
+
+/* COMPACT and SHIFTED: the table from the learnt functions, from the same span conditioned
+ * (wdr_cal_basis_conditioned), and from the conditioned ones held flat past the codes the array
+ * reads (wdr_cal_basis_held); the one whose kernel departs least from the float maps kept
+ * (wdr_cal_compact_departure; the held table is judged against the unheld maps, so what holding
+ * costs counts). Conditioning took Reinhard's seed 1 on sim-qvga from 1.268 % to 0.544 % analog
+ * (the float basis-4's figure); alone it lost on Schlick there (3.24 -> 4.71 %), whose conditioned
+ * functions grow 70x in the table's pad and cost the kernel's fixed-point points 1 bit
+ * (tests/calibration/README.md); holding the pad gives those bits back. */
 int wdr_cal_build_table_with(const wdr_cal_result *res, const wdr_basis *shared_basis, uint32_t sensor_id,
                              int operator_id, uint8_t **out, size_t *out_len, char *err, int errlen)
 {
     int rc = build_with(res, shared_basis, sensor_id, operator_id, out, out_len, err, errlen);
-    wdr_basis cond;
+    wdr_basis cond, held;
     if (rc || !wdr_cal_form_compact((uint16_t)res->cfg.form) ||
         wdr_cal_basis_conditioned(res, shared_basis, &cond) != WDR_OK)
         return rc;
-    uint8_t *other;
-    size_t other_len;
-    if (build_with(res, &cond, sensor_id, operator_id, &other, &other_len, err, errlen) == WDR_OK) {
-        double a = wdr_cal_compact_departure(res, shared_basis, *out, *out_len),
-               b = wdr_cal_compact_departure(res, &cond, other, other_len);
-        if (b < a) {
-            free(*out);
-            *out = other, *out_len = other_len;
-        } else
-            free(other);
-    }
+    double best = wdr_cal_compact_departure(res, shared_basis, *out, *out_len);
+    try_candidate(res, &cond, &cond, sensor_id, operator_id, out, out_len, &best);
+    if (wdr_cal_basis_held(res, &cond, &held) == WDR_OK)
+        try_candidate(res, &held, &cond, sensor_id, operator_id, out, out_len, &best);
+    wdr_cal_basis_free(&held);
     wdr_cal_basis_free(&cond);
-    if (err && errlen > 0)
-        err[0] = 0; /* a failed conditioned build leaves the learnt table, and no error */
-    return WDR_OK;
+    return WDR_OK; /* a failed candidate leaves the table before it, and no error */
 }
