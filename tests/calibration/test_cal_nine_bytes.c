@@ -26,8 +26,11 @@ typedef struct nine_cell {
 } nine_cell;
 
 static const nine_cell cells[] = {
-    {"schlick", 1, 0},           {"schlick", 2, 0}, {"tumblin_rushmeier", 2, 0},
-    {"tumblin_rushmeier", 3, 0}, {"tumblin_rushmeier", 1, 1.102},
+    {"schlick", 1, 0},
+    {"schlick", 2, 0},
+    {"tumblin_rushmeier", 2, 0},
+    {"tumblin_rushmeier", 3, 0},
+    {"tumblin_rushmeier", 1, 1.102},
 };
 
 /* 0 when the cell holds as listed (or as known), 1 otherwise; prints a line. */
@@ -42,8 +45,8 @@ static int check_cell(const nine_cell *c)
            shifted = out[1].side[0].refused ? 1e9 : out[1].side[0].worst_pct;
     double best = compact < shifted ? compact : shifted; /* NaN compares false: takes shifted */
     int holds = best <= LIMIT_PCT, known = c->known_pct > 0;
-    const char *verdict = holds ? (known ? "FIXED: now holds; remove it from cells[]" : "ok")
-                                : (known ? "KNOWN" : "FAIL (limit 1 %)");
+    const char *verdict =
+        holds ? (known ? "FIXED: now holds; remove it from cells[]" : "ok") : (known ? "KNOWN" : "FAIL (limit 1 %)");
     printf("%-18s seed %d: compact %.3f %%, shifted %.3f %% (12-bit %.2fx / %.2fx the floor): %s\n", c->op, c->seed,
            compact, shifted, out[0].floor_ratio, out[1].floor_ratio, verdict);
     fflush(stdout);
