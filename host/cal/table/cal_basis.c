@@ -648,16 +648,6 @@ static double basis_worst(const wdr_cal_result *res, const wdr_basis *b, long ph
     return worst;
 }
 
-/* Keep in *b whichever of *b and *other basis_worst judges better at phase; free the other. */
-static void keep_better(const wdr_cal_result *res, wdr_basis *b, wdr_basis *other, long phase)
-{
-    if (basis_worst(res, other, phase) < basis_worst(res, b, phase)) {
-        wdr_cal_basis_free(b);
-        *b = *other;
-    } else
-        wdr_cal_basis_free(other);
-}
-
 /* SHIFTED: three minimax tables, the best on the learner's judgement. Shifts re-picked as the
  * table is learnt gain where the bend sits (Tumblin-Rushmeier, sim-qvga seeds 1/2/3:
  * 1.102/0.894/0.956 -> 0.855/0.774/0.851 %) but lost on bench_target's chip (64x48 seed 11: 0.978
@@ -671,15 +661,19 @@ int wdr_cal_basis_learn(const wdr_cal_result *res, int n, int shifted, wdr_basis
 {
     if (!shifted)
         return learn_one(res, n, 0, 0, b, err, errlen);
-    int rc = learn_one(res, n, 2, 1, b, err, errlen);
+    wdr_basis cand[3]; /* re-picked, the anchor's shifts, no shifts */
+    int rc = learn_one(res, n, 2, 1, &cand[0], err, errlen);
     if (rc)
         return rc;
-    wdr_basis other;
-    if (!learn_one(res, n, 1, 1, &other, err, errlen))
-        keep_better(res, b, &other, HOLDOUT_PHASE);
-    if (!learn_one(res, n, 0, 1, &other, err, errlen))
-        keep_better(res, b, &other, 0);
-    return WDR_OK;
+    int ok1 = !learn_one(res, n, 1, 1, &cand[1], err, errlen), ok2 = !learn_one(res, n, 0, 1, &cand[2], err, errlen);
+    int best = ok1 && basis_worst(res, &cand[1], HOLDOUT_PHASE) < basis_worst(res, &cand[0], HOLDOUT_PHASE) ? 1 : 0;
+    if (ok2 && basis_worst(res, &cand[2], 0) < basis_worst(res, &cand[best], 0))
+        best = 2;
+    for (int i = 0; i < 3; i++)
+        if (i != best && (i == 0 || (i == 1 ? ok1 : ok2)))
+            wdr_cal_basis_free(&cand[i]);
+    *b = cand[best];
+    return WDR_OK; /* a candidate that failed leaves the others */
 }
 
 void wdr_cal_basis_free(wdr_basis *b)
