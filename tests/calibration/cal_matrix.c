@@ -317,25 +317,22 @@ int cm_run_chip(const cm_setup *s, int model, const char *op, uint64_t seed, dou
 {
     chip c[2];
     wdr_cal_result res[2];
-    int fitted[2] = {0, 0};
-    char reason[2][CM_REASON] = {"", ""};
+    int fitted[2] = {0, 0}, sides = s->analog_only ? 1 : 2;
+    char reason[2][CM_REASON] = {"", "not run (analog only)"};
     double lo = 0, hi = 0, x[CM_N_TEST];
-    if (chip_open(&c[0], s, op, seed, mismatch, 0)) {
-        chip_close(&c[0]);
-        return 1;
-    }
-    if (chip_open(&c[1], s, op, seed, mismatch, 1)) {
-        chip_close(&c[0]);
-        chip_close(&c[1]);
-        return 1;
-    }
+    for (int v = 0; v < sides; v++)
+        if (chip_open(&c[v], s, op, seed, mismatch, v)) {
+            for (int w = 0; w <= v; w++)
+                chip_close(&c[w]);
+            return 1;
+        }
     /* both sides judged at the same currents: the analog chip's informative range */
     if (wdr_cal_informative_range(&c[0].grid, MIN_SLOPE_CODES, &lo, &hi) &&
-        wdr_cal_informative_range(&c[1].grid, MIN_SLOPE_CODES, &lo, &hi))
-        snprintf(reason[0], CM_REASON, "the response is flat everywhere"),
-            snprintf(reason[1], CM_REASON, "%s", reason[0]);
+        (sides < 2 || wdr_cal_informative_range(&c[1].grid, MIN_SLOPE_CODES, &lo, &hi)))
+        for (int v = 0; v < sides; v++)
+            snprintf(reason[v], CM_REASON, "the response is flat everywhere");
     else
-        for (int v = 0; v < 2; v++)
+        for (int v = 0; v < sides; v++)
             fitted[v] = !fit(&c[v], model, lo, hi, &res[v], reason[v]);
     for (int k = 0; k < CM_N_TEST; k++)
         x[k] = lo * pow(hi / lo, (k + 0.37) / CM_N_TEST);
@@ -344,6 +341,11 @@ int cm_run_chip(const cm_setup *s, int model, const char *op, uint64_t seed, dou
         memset(cell, 0, sizeof *cell);
         cell->model = model, cell->op = op, cell->seed = seed, cell->mismatch = mismatch;
         cell->form = forms[f], cell->n_coeffs = n_coeffs[f], cell->asked_auto = forms[f] == CM_FORM_AUTO;
+        if (cell->asked_auto && sides < 2) { /* auto judges on the 12-bit chip */
+            snprintf(cell->side[0].reason, CM_REASON, "auto needs the 12-bit chip (analog only)");
+            cell->side[0].refused = cell->side[1].refused = 1, cell->floor_ratio = NAN;
+            continue;
+        }
         if (cell->asked_auto)
             auto_form(&c[1], fitted[1] ? &res[1] : NULL, lo, hi, cell);
         int same = -1; /* auto's choice already built: the same cell */
@@ -367,7 +369,7 @@ int cm_run_chip(const cm_setup *s, int model, const char *op, uint64_t seed, dou
         floor_ratio(cell, x, pct[0], pct[1], qf[1]);
         cell->model_ratio = isfinite(cell->floor_ratio) ? ratio_of(mpct[0], mpct[1], qf[1]) : NAN;
     }
-    for (int v = 0; v < 2; v++) {
+    for (int v = 0; v < sides; v++) {
         if (fitted[v])
             wdr_cal_result_free(&res[v]);
         chip_close(&c[v]);

@@ -23,6 +23,7 @@ typedef struct cm_setup {
     const char *board; /* board name (WDR_BOARDS_DIR) or file; NULL: sim-qvga */
     int width, height; /* 0: the board's */
     int plant_defects; /* 1: dead, stuck, hot, saturated planted (CM_DEFECT_PPM each) */
+    int analog_only;   /* 1: the 12-bit chip is not run (side[1] refused, no floor ratio, no auto): half the time */
 } cm_setup;
 
 /* One converter condition of one cell. */
