@@ -501,12 +501,15 @@ static void move_pixel(learner *L, int p, int d)
 /* Each sample pixel takes the shift that fits it best on the table as learnt so far, searched
  * where the final fit searches (wdr_cal_basis_shift: the anchor's shift +-SHIFT_SEARCH). The
  * table is then learnt on the shifts the pixels will be fitted with, not on the anchor's alone. */
+static int clamp_shift(double d);
+
 static void repick_shifts(learner *L)
 {
     for (int p = 0; p < L->m; p++) {
         int best = (int)L->shift[p];
         double cost = INFINITY;
-        for (int d = (int)L->shift0[p] - SHIFT_SEARCH; d <= (int)L->shift0[p] + SHIFT_SEARCH; d++) {
+        /* within the flag byte's range, as the final fit's search (clamp_shift) */
+        for (int d = clamp_shift(L->shift0[p] - SHIFT_SEARCH); d <= clamp_shift(L->shift0[p] + SHIFT_SEARCH); d++) {
             double e = learner_shift_cost(L, p, d);
             if (e < cost)
                 cost = e, best = d;
