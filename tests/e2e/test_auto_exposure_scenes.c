@@ -7,7 +7,8 @@
  * log wedge over seven decades: 18 % of it below the floor at the settled exposure). A fourth,
  * a window over ten decades (29 % past the floor, 12 % past the ceiling), is printed, not held:
  * what lies past both ends is a guess there (the censored tails are continued at the density seen
- * inside the limits, uniform in ln I, which fits a log gradient and not that scene's room).
+ * inside the limits, uniform in ln I, which fits a log gradient and not that scene's room). A
+ * fifth, two halves e^4 apart, is printed too: the key never settles there (open; see scenes[]).
  *
  * The truth is the scene's log-average photocurrent counted as the software tone map counts it
  * (wdr_lum_stats_measure: every pixel's log, values at or below 1e-9 of the maximum at that guard),
