@@ -3,6 +3,7 @@
 #include "cal_fit_internal.h"
 #include "wdr_err.h"
 #include <math.h>
+#include <string.h>
 
 /* A falling curve through noisy, quantised codes. Where the response is flat, neighbouring
  * levels tie or even rise a little: a rise within the level pair's tolerance (quantisation
@@ -44,11 +45,29 @@ int wdr_cal_fit_spline_pixel(const double *y, const double *med, int n, const do
     return st;
 }
 
+/* The pixel's curve through its knots. Callers map many codes of one pixel in a row, and the
+ * slopes' tridiagonal solve cost more than the inversion: the last curve is kept, per thread,
+ * and reused while its knots, values and end ratios are the same numbers. */
+static const wdr_pchip *pixel_curve(const wdr_cal_result *res, const double *par)
+{
+    static _Thread_local wdr_pchip curve;
+    static _Thread_local double ends[2];
+    static _Thread_local int valid;
+    int n = res->nominal.curve.n;
+    size_t row = sizeof(double) * (size_t)n;
+    if (valid && curve.n == n && !memcmp(curve.y, par, row) && !memcmp(curve.lx, res->nominal.curve.lx, row) &&
+        !memcmp(ends, res->nominal.end_ratio, sizeof ends))
+        return &curve;
+    valid = !wdr_pchip_init_ends(&curve, res->nominal.curve.lx, par, n, res->nominal.end_ratio);
+    memcpy(ends, res->nominal.end_ratio, sizeof ends);
+    return valid ? &curve : NULL;
+}
+
 double wdr_cal_spline_recover(const wdr_cal_result *res, const double *par, double y)
 {
-    wdr_pchip p;
-    if (wdr_pchip_init_ends(&p, res->nominal.curve.lx, par, res->nominal.curve.n, res->nominal.end_ratio))
+    const wdr_pchip *p = pixel_curve(res, par);
+    if (!p)
         return 0;
-    double lx = wdr_pchip_invert(&p, y);
+    double lx = wdr_pchip_invert(p, y);
     return lx > log(1e-22) ? exp(fmin(lx, log(1e-2))) : 0;
 }

@@ -122,6 +122,21 @@ static int pchip_segment(const wdr_pchip *p, double lx)
     return lo;
 }
 
+/* The Hermite cubic of segment k and its derivative, at lx inside it. */
+static double segment_value(const wdr_pchip *p, int k, double lx)
+{
+    double h = p->lx[k + 1] - p->lx[k], t = (lx - p->lx[k]) / h, t2 = t * t, t3 = t2 * t;
+    return (2 * t3 - 3 * t2 + 1) * p->y[k] + (t3 - 2 * t2 + t) * h * p->m[k] + (-2 * t3 + 3 * t2) * p->y[k + 1] +
+           (t3 - t2) * h * p->m[k + 1];
+}
+
+static double segment_slope(const wdr_pchip *p, int k, double lx)
+{
+    double h = p->lx[k + 1] - p->lx[k], t = (lx - p->lx[k]) / h, t2 = t * t;
+    return (6 * t2 - 6 * t) / h * p->y[k] + (3 * t2 - 4 * t + 1) * p->m[k] + (-6 * t2 + 6 * t) / h * p->y[k + 1] +
+           (3 * t2 - 2 * t) * p->m[k + 1];
+}
+
 /* Outside the knots the curve continues as a straight line in ln x along the end secant: the
  * end tangent of a flattening response can be zero, and a flat extension has no inverse. */
 static double end_secant(const wdr_pchip *p, int last)
@@ -136,10 +151,7 @@ double wdr_pchip_eval(const wdr_pchip *p, double lx)
         return p->y[0] + end_secant(p, 0) * (lx - p->lx[0]);
     if (lx >= p->lx[p->n - 1])
         return p->y[p->n - 1] + end_secant(p, 1) * (lx - p->lx[p->n - 1]);
-    int k = pchip_segment(p, lx);
-    double h = p->lx[k + 1] - p->lx[k], t = (lx - p->lx[k]) / h, t2 = t * t, t3 = t2 * t;
-    return (2 * t3 - 3 * t2 + 1) * p->y[k] + (t3 - 2 * t2 + t) * h * p->m[k] + (-2 * t3 + 3 * t2) * p->y[k + 1] +
-           (t3 - t2) * h * p->m[k + 1];
+    return segment_value(p, pchip_segment(p, lx), lx);
 }
 
 double wdr_pchip_slope(const wdr_pchip *p, double lx)
@@ -148,27 +160,30 @@ double wdr_pchip_slope(const wdr_pchip *p, double lx)
         return end_secant(p, 0);
     if (lx >= p->lx[p->n - 1])
         return end_secant(p, 1);
-    int k = pchip_segment(p, lx);
-    double h = p->lx[k + 1] - p->lx[k], t = (lx - p->lx[k]) / h, t2 = t * t;
-    return (6 * t2 - 6 * t) / h * p->y[k] + (3 * t2 - 4 * t + 1) * p->m[k] + (-6 * t2 + 6 * t) / h * p->y[k + 1] +
-           (3 * t2 - 2 * t) * p->m[k + 1];
+    return segment_slope(p, pchip_segment(p, lx), lx);
 }
 
-/* Newton on the segment's cubic, kept inside the segment by bisection. */
+/* Newton on the segment's cubic, kept inside the segment by bisection. It stops once a step no
+ * longer moves lx or the bracket holds no double between its ends: the cubic's own rounding (a few ulp of y) can exceed the residual bound, and
+ * then the bracket closes to adjacent doubles that Newton only swaps (before this stop, one call
+ * in seven ran all 100 iterations, and the calibration spent a third of its time there). */
 static double segment_invert(const wdr_pchip *p, int k, double y)
 {
     double lo = p->lx[k], hi = p->lx[k + 1], dir = p->y[k + 1] > p->y[k] ? 1 : -1;
     double lx = lo + (hi - lo) * (y - p->y[k]) / (p->y[k + 1] - p->y[k]);
     for (int it = 0; it < 100 && hi - lo > 1e-16 * (1 + fabs(lx)); it++) {
-        double r = (wdr_pchip_eval(p, lx) - y) * dir;
+        double r = (segment_value(p, k, lx) - y) * dir;
         if (fabs(r) <= 4e-16 * (1 + fabs(y)))
             break;
         if (r > 0)
             hi = lx;
         else
             lo = lx;
-        double d = wdr_pchip_slope(p, lx) * dir, next = d > 0 ? lx - r / d : NAN;
-        lx = next >= lo && next <= hi ? next : 0.5 * (lo + hi);
+        double d = segment_slope(p, k, lx) * dir, next = d > 0 ? lx - r / d : NAN;
+        next = next >= lo && next <= hi ? next : 0.5 * (lo + hi);
+        if (next == lx || !(nextafter(lo, hi) < hi))
+            break;
+        lx = next;
     }
     return lx;
 }
