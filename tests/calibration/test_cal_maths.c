@@ -87,6 +87,21 @@ static void qr_least_squares_line(void **state)
     assert_double_equal(c[1], 3, 1e-9);
 }
 
+/* Columns 320 decades apart: their squares would underflow and overflow; the fit still finds the
+ * line, since the columns are equilibrated before the reflections' plain sums of squares. */
+static void qr_least_squares_extreme_columns(void **state)
+{
+    (void)state;
+    double a[2 * 6], y[6], c[2], rcond;
+    for (int i = 0; i < 6; i++) {
+        a[2 * i] = 1e-160, a[2 * i + 1] = 1e160 * i * 1e-3;
+        y[i] = 2 + 3 * i * 1e-3;
+    }
+    assert_int_equal(wdr_lsq_solve(a, y, NULL, 6, 2, c, &rcond), WDR_FIT_OK);
+    assert_double_equal(c[0] / 2e160, 1, 1e-12);
+    assert_double_equal(c[1] / 3e-160, 1, 1e-9);
+}
+
 static void quadratic_root_without_cancellation(void **state)
 {
     (void)state;
@@ -392,7 +407,8 @@ int main(void)
         cmocka_unit_test(isotonic_pools_reversals),
         cmocka_unit_test(simple3_closed_form_exact),   cmocka_unit_test(simple3_dark_parameter),
         cmocka_unit_test(complex4_linear_system_exact), cmocka_unit_test(lu_refuses_singular),
-        cmocka_unit_test(qr_least_squares_line),       cmocka_unit_test(quadratic_root_without_cancellation),
+        cmocka_unit_test(qr_least_squares_line),       cmocka_unit_test(qr_least_squares_extreme_columns),
+        cmocka_unit_test(quadratic_root_without_cancellation),
         cmocka_unit_test(monotone_curve_stays_monotone), cmocka_unit_test(table_round_trip_and_kernel),
         cmocka_unit_test(table_damage_refused),        cmocka_unit_test(table_bad_numbers_refused),
         cmocka_unit_test(basis_table_round_trip_and_kernel), cmocka_unit_test(basis_table_bad_shared_refused),
