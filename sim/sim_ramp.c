@@ -83,9 +83,18 @@ static int build_guess(const wdr_sim *s, sim_ramp_table *tab)
     tab->guess = malloc((size_t)tab->n_guess * sizeof *tab->guess);
     if (!tab->guess)
         return WDR_E_NOMEM;
+    /* Bucket edges rise, so their crossing nodes fall: one search for the first edge, then a walk
+     * down the nodes, n + n_guess steps in all instead of a search per bucket (which took a fifth
+     * of an auto-exposure run, whose ramp changes every frame). Same table: the search finds the
+     * first node whose condition holds, and the condition is monotone in the node. */
+    int k = 0;
     for (int b = 0; b < tab->n_guess; b++) {
         double edge = sim_bits_float((tab->guess_base + (uint32_t)b) << SIM_GUESS_SHIFT);
-        tab->guess[b] = first_crossed_nominal(tab, edge);
+        if (b == 0)
+            k = first_crossed_nominal(tab, edge);
+        while (k > 0 && nominal_g(&tab->node[k - 1], edge) <= 0)
+            k--;
+        tab->guess[b] = (uint16_t)k;
     }
     return WDR_OK;
 }
