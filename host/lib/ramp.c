@@ -397,21 +397,18 @@ static double lut_volts(const wdr_lut_view *lut, uint16_t code)
     return lo + code * (hi - lo) / (double)((1u << lut->h.dac_bits) - 1u);
 }
 
-/* Per-step quantities of a LUT, computed once for many currents. */
-typedef struct lut_steps {
-    uint32_t n;
-    double *t0, *t1, *v, *need;
-} lut_steps;
-
-static void lut_steps_free(lut_steps *s)
+/* Per-step quantities of a LUT, computed once for many currents. Freed twice is harmless (a
+ * failed init has freed them already). */
+void wdr_lut_steps_free(wdr_lut_steps *s)
 {
     free(s->t0);
     free(s->t1);
     free(s->v);
     free(s->need);
+    memset(s, 0, sizeof *s);
 }
 
-static int lut_steps_init(const wdr_ideal_pixel *px, const wdr_lut_view *lut, lut_steps *s)
+int wdr_lut_steps_init(const wdr_ideal_pixel *px, const wdr_lut_view *lut, wdr_lut_steps *s)
 {
     double tick = lut->h.tick_ps * 1e-12;
     s->n = lut->h.entry_count;
@@ -420,7 +417,7 @@ static int lut_steps_init(const wdr_ideal_pixel *px, const wdr_lut_view *lut, lu
     s->v = malloc(s->n * sizeof(double));
     s->need = malloc(s->n * sizeof(double));
     if (!s->t0 || !s->t1 || !s->v || !s->need) {
-        lut_steps_free(s);
+        wdr_lut_steps_free(s);
         return WDR_E_NOMEM;
     }
     for (uint32_t k = 0; k < s->n; k++) {
@@ -440,7 +437,7 @@ static int lut_steps_init(const wdr_ideal_pixel *px, const wdr_lut_view *lut, lu
 /* Step k holds its code from its stamp to the next; M2 turns off in the first step by whose end
  * the current has removed the charge needed for that step's level. If the node was already below
  * that level when the step began, M2 only lets G rise to the follower level of the node. */
-static double steps_response(const wdr_ideal_pixel *px, const lut_steps *s, double i)
+double wdr_lut_steps_response(const wdr_ideal_pixel *px, const wdr_lut_steps *s, double i)
 {
     for (uint32_t k = 0; k < s->n; k++) {
         if (i * s->t1[k] < s->need[k])
@@ -455,11 +452,11 @@ static double steps_response(const wdr_ideal_pixel *px, const lut_steps *s, doub
 
 double wdr_ramp_lut_ideal_response(const wdr_ideal_pixel *px, const wdr_lut_view *lut, double i)
 {
-    lut_steps s;
-    if (lut_steps_init(px, lut, &s))
+    wdr_lut_steps s;
+    if (wdr_lut_steps_init(px, lut, &s))
         return NAN;
-    double v = steps_response(px, &s, i);
-    lut_steps_free(&s);
+    double v = wdr_lut_steps_response(px, &s, i);
+    wdr_lut_steps_free(&s);
     return v;
 }
 
@@ -467,18 +464,18 @@ double wdr_ramp_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operato
                                double i_min, double i_max, int n, double *worst_i)
 {
     double lsb = (lut->h.dac_hi_v - lut->h.dac_lo_v) / (double)((1u << lut->h.dac_bits) - 1u), worst = 0;
-    lut_steps s;
-    if (lut_steps_init(px, lut, &s))
+    wdr_lut_steps s;
+    if (wdr_lut_steps_init(px, lut, &s))
         return INFINITY;
     for (int j = 0; j < n; j++) {
         double i = exp(log(i_min) + (log(i_max) - log(i_min)) * j / (n - 1));
-        double e = fabs(steps_response(px, &s, i) - wdr_ideal_target(px, op, i)) / lsb;
+        double e = fabs(wdr_lut_steps_response(px, &s, i) - wdr_ideal_target(px, op, i)) / lsb;
         if (e > worst || !isfinite(e)) {
             worst = isfinite(e) ? e : INFINITY;
             if (worst_i)
                 *worst_i = i;
         }
     }
-    lut_steps_free(&s);
+    wdr_lut_steps_free(&s);
     return worst;
 }

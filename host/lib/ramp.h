@@ -58,6 +58,16 @@ int wdr_ramp_quantise(const wdr_ramp *r, const wdr_board *b, const wdr_operator 
 /* Held G value of an ideal pixel with current i under a quantised LUT (step crossing). */
 double wdr_ramp_lut_ideal_response(const wdr_ideal_pixel *px, const wdr_lut_view *lut, double i);
 
+/* The same for many currents: the LUT's steps and the charge each needs (two pow() a step),
+ * computed once. wdr_ramp_lut_ideal_response builds and frees them on every call. */
+typedef struct wdr_lut_steps {
+    uint32_t n;
+    double *t0, *t1, *v, *need;
+} wdr_lut_steps;
+int wdr_lut_steps_init(const wdr_ideal_pixel *px, const wdr_lut_view *lut, wdr_lut_steps *s);
+double wdr_lut_steps_response(const wdr_ideal_pixel *px, const wdr_lut_steps *s, double i);
+void wdr_lut_steps_free(wdr_lut_steps *s);
+
 /* Worst |response - g(I)| in DAC LSB over n log-spaced currents in [i_min, i_max];
  * *worst_i gets the current where it happens (may be NULL). */
 double wdr_ramp_lut_worst_error_lsb(const wdr_ideal_pixel *px, const wdr_operator *op, const wdr_lut_view *lut,

@@ -8,6 +8,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* A LUT with its steps worked out once: a table evaluates the nominal pixel at some 10,000
+ * currents, and building the steps for each (two pow() per LUT entry) was the auto-exposure
+ * run's largest cost. */
+typedef struct expo_lut {
+    const wdr_lut_view *view;
+    wdr_lut_steps steps;
+} expo_lut;
+
 /* The hold droop until the middle row is read. The calibration's corrected codes are the array
  * median's, whose pixels wait half the readout after the ramp (4.8 ms on sim-vga, three times the
  * integration: 1.6 codes, 0.2-0.5 ln each at the ends of Reinhard's response). */
@@ -21,11 +29,11 @@ static double read_droop_v(const wdr_board *b)
  * current, and G droops from the crossing to the integration's end, then for the read delay.
  * Without the first droop the table read sim-qvga's brightest 1.1 ln 0.19 ln bright (about 0.6
  * code, where one code spans 0.1-0.3 ln). *own_droop gets that droop (V). */
-static double held_g(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double i,
+static double held_g(const wdr_ideal_pixel *px, const wdr_board *b, const expo_lut *lut, double i,
                      double *own_droop)
 {
-    double total = i + b->dark_current_a, g = wdr_ramp_lut_ideal_response(px, lut, total);
-    double t_end = (double)lut->h.t_integration_ticks * lut->h.tick_ps * 1e-12;
+    double total = i + b->dark_current_a, g = wdr_lut_steps_response(px, &lut->steps, total);
+    double t_end = (double)lut->view->h.t_integration_ticks * lut->view->h.tick_ps * 1e-12;
     double t_c = fmin(wdr_ideal_cross_time(px, total, g), t_end);
     *own_droop = b->hold_leak_a * (t_end - (t_c > 0 ? t_c : 0)) / b->c_hold_f;
     return g - *own_droop - read_droop_v(b);
@@ -37,7 +45,7 @@ static double codes_per_volt(const wdr_board *b)
 }
 
 /* Unrounded ADC code of the nominal pixel with light i under lut, read at the middle row. */
-static double ideal_code(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double i)
+static double ideal_code(const wdr_ideal_pixel *px, const wdr_board *b, const expo_lut *lut, double i)
 {
     double dv, v = wdr_pixel_sf_out(&px->dev, held_g(px, b, lut, i, &dv));
     return (b->adc_offset_v - b->adc_lo_v) / (b->adc_hi_v - b->adc_lo_v) * ((1u << b->adc_bits) - 1u) +
@@ -47,7 +55,7 @@ static double ideal_code(const wdr_ideal_pixel *px, const wdr_board *b, const wd
 /* Codes the hold droop takes from code `code` per unit of (tick / own tick - 1): a pixel that
  * crossed at t_c holds G for (T - t_c) m + the row's read delay at tick ratio m; the read delay and
  * the own tick's droop are in the calibration's nominal response, the rest is (m - 1) (T - t_c). */
-static double droop_codes(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double ln_i)
+static double droop_codes(const wdr_ideal_pixel *px, const wdr_board *b, const expo_lut *lut, double ln_i)
 {
     double dv, g = held_g(px, b, lut, exp(ln_i), &dv);
     return codes_per_volt(b) * (wdr_pixel_sf_out(&px->dev, g) - wdr_pixel_sf_out(&px->dev, g - dv));
@@ -55,7 +63,7 @@ static double droop_codes(const wdr_ideal_pixel *px, const wdr_board *b, const w
 
 /* A bin's droop per unit of (tick / own tick - 1), in 1/256 code, at the current ln_i of its
  * first code, from the LUT's own integration time. */
-static int16_t droop_q8_at(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double ln_i)
+static int16_t droop_q8_at(const wdr_ideal_pixel *px, const wdr_board *b, const expo_lut *lut, double ln_i)
 {
     return (int16_t)lround(fmin(32767, 256 * droop_codes(px, b, lut, ln_i)));
 }
@@ -65,7 +73,7 @@ static int16_t droop_q8_at(const wdr_ideal_pixel *px, const wdr_board *b, const 
  * sim-qvga's Reinhard ramp (the droop varies slowly with the current: the grid's 0.007 ln moves
  * it by under 1/256). */
 #define DROOP_GRID 2048
-static int fill_droop_from_grid(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut,
+static int fill_droop_from_grid(const wdr_ideal_pixel *px, const wdr_board *b, const expo_lut *lut,
                                 wdr_lut_exposure *ex)
 {
     double *ln_i = malloc(sizeof *ln_i * 2 * DROOP_GRID);
@@ -101,7 +109,7 @@ static int fill_droop_from_grid(const wdr_ideal_pixel *px, const wdr_board *b, c
  * runs at the grid's ends keep their inner edge: the floor and the ceiling. Returns the points
  * kept (codes falling as light rises). */
 #define LN_GRID 8192
-static int code_curve(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut, double *ln_i,
+static int code_curve(const wdr_ideal_pixel *px, const wdr_board *b, const expo_lut *lut, double *ln_i,
                       double *code)
 {
     double lo = log(b->i_min_a), hi = log(b->i_max_a);
@@ -196,7 +204,7 @@ static uint32_t floor_bin(const wdr_lut_exposure *ex)
 
 /* Past the floor, the nominal code is on the line through the floor's bin and the first bin of
  * the floor's flat run, in current, down to no light: what WDR_LUT_EXPO_LINEAR_DARK promises. */
-static bool dark_end_is_linear(const wdr_ideal_pixel *px, const wdr_board *b, const wdr_lut_view *lut,
+static bool dark_end_is_linear(const wdr_ideal_pixel *px, const wdr_board *b, const expo_lut *lut,
                                const wdr_lut_exposure *ex, double key_amp, double *worst_codes)
 {
     uint32_t b1 = floor_bin(ex);
@@ -219,10 +227,24 @@ static bool dark_end_is_linear(const wdr_ideal_pixel *px, const wdr_board *b, co
     return *worst_codes <= LINEAR_DARK_TOLERANCE_CODES;
 }
 
-int wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, double key_amp, wdr_lut_exposure *out)
+static int exposure_table(const wdr_board *b, const wdr_ideal_pixel *px, const expo_lut *lut, double key_amp,
+                          wdr_lut_exposure *out);
+
+int wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *view, double key_amp, wdr_lut_exposure *out)
 {
     wdr_ideal_pixel px;
     wdr_ideal_pixel_init(b, &px);
+    expo_lut lut = {.view = view};
+    if (wdr_lut_steps_init(&px, view, &lut.steps))
+        return WDR_E_NOMEM;
+    int rc = exposure_table(b, &px, &lut, key_amp, out);
+    wdr_lut_steps_free(&lut.steps);
+    return rc;
+}
+
+static int exposure_table(const wdr_board *b, const wdr_ideal_pixel *px, const expo_lut *lut, double key_amp,
+                          wdr_lut_exposure *out)
+{
     /* 1024 bins (4 codes each at 12 bits): the ends of a compressive operator's response hold a
      * decade in a few codes, and the firmware reads the floor and the ceiling from the table */
     uint32_t bits = b->adc_bits < 6 ? 6 : b->adc_bits > 10 ? 10 : b->adc_bits;
@@ -240,18 +262,18 @@ int wdr_ramp_lut_exposure_table(const wdr_board *b, const wdr_lut_view *lut, dou
     if (!ln_i)
         return WDR_E_NOMEM;
     double *code = ln_i + LN_GRID;
-    int n = code_curve(&px, b, lut, ln_i, code);
+    int n = code_curve(px, b, lut, ln_i, code);
     for (uint32_t k = 0; k < out->bins; k++) {
         double first = (double)(k << out->code_shift); /* the firmware interpolates between bins */
         double ln_rel = ln_on_curve(ln_i, code, n, first, b) - log(key_amp);
         double q = fmax(-WDR_LUT_EXPO_MAX_LN_Q8, fmin(WDR_LUT_EXPO_MAX_LN_Q8, ln_rel * 256));
         out->ln_q8[k] = (int16_t)lround(q);
-        out->droop_q8[k] = droop_q8_at(&px, b, lut, ln_rel + log(key_amp));
+        out->droop_q8[k] = droop_q8_at(px, b, lut, ln_rel + log(key_amp));
     }
     free(ln_i);
     flatten_unresolved_dark_end(out);
     double worst;
-    if (dark_end_is_linear(&px, b, lut, out, key_amp, &worst))
+    if (dark_end_is_linear(px, b, lut, out, key_amp, &worst))
         out->flags |= WDR_LUT_EXPO_LINEAR_DARK;
     return WDR_OK;
 }
@@ -270,7 +292,9 @@ int wdr_ramp_lut_refresh_droop(uint8_t *bytes, size_t len, const wdr_board *b)
     if (!rc && (ex->flags & WDR_LUT_EXPO_DROOP)) {
         wdr_ideal_pixel px;
         wdr_ideal_pixel_init(b, &px);
-        rc = fill_droop_from_grid(&px, b, &lut, ex);
+        expo_lut steps = {.view = &lut};
+        rc = wdr_lut_steps_init(&px, &lut, &steps.steps) ? WDR_E_NOMEM : fill_droop_from_grid(&px, b, &steps, ex);
+        wdr_lut_steps_free(&steps.steps);
         if (!rc)
             wdr_lut_exposure_encode(ex, bytes + end);
     }
