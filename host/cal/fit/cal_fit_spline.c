@@ -3,7 +3,6 @@
 #include "cal_fit_internal.h"
 #include "wdr_err.h"
 #include <math.h>
-#include <string.h>
 
 /* A falling curve through noisy, quantised codes. Where the response is flat, neighbouring
  * levels tie or even rise a little: a rise within the level pair's tolerance (quantisation
@@ -45,6 +44,14 @@ int wdr_cal_fit_spline_pixel(const double *y, const double *med, int n, const do
     return st;
 }
 
+static int same_numbers(const double *a, const double *b, int n)
+{
+    for (int k = 0; k < n; k++)
+        if (!(a[k] == b[k]))
+            return 0;
+    return 1;
+}
+
 /* The pixel's curve through its knots. Callers map many codes of one pixel in a row, and the
  * slopes' tridiagonal solve cost more than the inversion: the last curve is kept, per thread,
  * and reused while its knots, values and end ratios are the same numbers. */
@@ -54,12 +61,12 @@ static const wdr_pchip *pixel_curve(const wdr_cal_result *res, const double *par
     static _Thread_local double ends[2];
     static _Thread_local int valid;
     int n = res->nominal.curve.n;
-    size_t row = sizeof(double) * (size_t)n;
-    if (valid && curve.n == n && !memcmp(curve.y, par, row) && !memcmp(curve.lx, res->nominal.curve.lx, row) &&
-        !memcmp(ends, res->nominal.end_ratio, sizeof ends))
+    if (valid && curve.n == n && same_numbers(curve.y, par, n) && same_numbers(curve.lx, res->nominal.curve.lx, n) &&
+        same_numbers(ends, res->nominal.end_ratio, 2))
         return &curve;
     valid = !wdr_pchip_init_ends(&curve, res->nominal.curve.lx, par, n, res->nominal.end_ratio);
-    memcpy(ends, res->nominal.end_ratio, sizeof ends);
+    ends[0] = res->nominal.end_ratio[0];
+    ends[1] = res->nominal.end_ratio[1];
     return valid ? &curve : NULL;
 }
 
