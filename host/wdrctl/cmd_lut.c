@@ -339,10 +339,14 @@ static int write_plot_data(const char *dir, const char *tag, const wdr_operator 
     snprintf(path, sizeof path, "%s/%s.resp", dir, tag);
     if (!(f = fopen(path, "w")))
         return EX_CANTCREAT;
+    wdr_lut_steps steps; /* built once for the 301 points */
+    int no_steps = wdr_lut_steps_init(&r->px, &r->view, &steps);
     for (int j = 0; j <= 300; j++) {
         double i = b->i_min_a * pow(b->i_max_a / b->i_min_a, j / 300.0);
-        fprintf(f, "%.9g %.9g %.9g\n", i, wdr_ideal_target(&r->px, op, i), wdr_ramp_lut_ideal_response(&r->px, &r->view, i));
+        double g = no_steps ? NAN : wdr_lut_steps_response(&r->px, &steps, i);
+        fprintf(f, "%.9g %.9g %.9g\n", i, wdr_ideal_target(&r->px, op, i), g);
     }
+    wdr_lut_steps_free(&steps);
     fclose(f);
     return EX_OK;
 }

@@ -164,9 +164,10 @@ double wdr_pchip_slope(const wdr_pchip *p, double lx)
 }
 
 /* Newton on the segment's cubic, kept inside the segment by bisection. It stops once a step no
- * longer moves lx or the bracket holds no double between its ends: the cubic's own rounding (a few ulp of y) can exceed the residual bound, and
- * then the bracket closes to adjacent doubles that Newton only swaps (before this stop, one call
- * in seven ran all 100 iterations, and the calibration spent a third of its time there). */
+ * longer moves lx or the bracket holds no double between its ends: the cubic's own rounding (a
+ * few ulp of y) can exceed the residual bound, and then the bracket closes to adjacent doubles
+ * that Newton only swaps (before this stop, one call in seven ran all 100 iterations, and the
+ * calibration spent a third of its time there). */
 static double segment_invert(const wdr_pchip *p, int k, double y)
 {
     double lo = p->lx[k], hi = p->lx[k + 1], dir = p->y[k + 1] > p->y[k] ? 1 : -1;
